@@ -1,0 +1,144 @@
+//! Triangle meshes and polygon meshes (quads and n-gons).
+
+use crate::math::{Point3, Vector3};
+use crate::point_cloud::Aabb;
+
+/// A triangle mesh: shared vertices and faces as three vertex indices, counter-clockwise seen from
+/// outside.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TriMesh {
+    /// Vertex positions.
+    pub vertices: Vec<Point3>,
+    /// Triangles as vertex indices.
+    pub faces: Vec<[u32; 3]>,
+    /// Optional per-vertex unit normals.
+    pub normals: Option<Vec<Vector3>>,
+}
+
+impl TriMesh {
+    /// The axis-aligned bounding box, `None` without vertices.
+    pub fn bounding_box(&self) -> Option<Aabb> {
+        Aabb::of(&self.vertices)
+    }
+
+    /// This mesh as a polygon mesh.
+    pub fn to_poly(&self) -> PolyMesh {
+        PolyMesh {
+            vertices: self.vertices.clone(),
+            indices: self.faces.iter().flatten().copied().collect(),
+            offsets: (0..=self.faces.len() as u32).map(|i| 3 * i).collect(),
+            normals: self.normals.clone(),
+        }
+    }
+}
+
+/// A polygon mesh: faces of any size (≥ 3) stored compactly: face `f` is
+/// `indices[offsets[f]..offsets[f + 1]]`.
+///
+/// ```text
+///   faces      [0 1 2] [2 1 3 4]          (a triangle and a quad)
+///   indices    0 1 2 2 1 3 4
+///   offsets    0     3       7
+/// ```
+#[derive(Debug, Clone, PartialEq)]
+pub struct PolyMesh {
+    /// Vertex positions.
+    pub vertices: Vec<Point3>,
+    /// All faces' vertex indices, one face after another.
+    pub indices: Vec<u32>,
+    /// Where each face starts in `indices`, plus a final end: `faces + 1` entries.
+    pub offsets: Vec<u32>,
+    /// Optional per-vertex unit normals.
+    pub normals: Option<Vec<Vector3>>,
+}
+
+impl Default for PolyMesh {
+    fn default() -> Self {
+        PolyMesh { vertices: Vec::new(), indices: Vec::new(), offsets: vec![0], normals: None }
+    }
+}
+
+impl PolyMesh {
+    /// Builds a mesh from faces given as index lists.
+    pub fn from_faces<F: AsRef<[u32]>>(vertices: Vec<Point3>, faces: impl IntoIterator<Item = F>) -> Self {
+        let mut mesh = PolyMesh { vertices, ..Default::default() };
+        for f in faces {
+            mesh.push_face(f.as_ref());
+        }
+        mesh
+    }
+
+    /// Appends one face.
+    pub fn push_face(&mut self, face: &[u32]) {
+        self.indices.extend_from_slice(face);
+        self.offsets.push(self.indices.len() as u32);
+    }
+
+    /// Number of faces.
+    pub fn face_count(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    /// Face `f`'s vertex indices.
+    pub fn face(&self, f: usize) -> &[u32] {
+        &self.indices[self.offsets[f] as usize..self.offsets[f + 1] as usize]
+    }
+
+    /// All faces in order.
+    pub fn faces(&self) -> impl ExactSizeIterator<Item = &[u32]> + '_ {
+        self.offsets.windows(2).map(|w| &self.indices[w[0] as usize..w[1] as usize])
+    }
+
+    /// How many faces have each size: `(triangles, quads, larger)`.
+    pub fn face_sizes(&self) -> FaceSizes {
+        let mut s = FaceSizes::default();
+        for f in self.faces() {
+            match f.len() {
+                3 => s.triangles += 1,
+                4 => s.quads += 1,
+                _ => s.larger += 1,
+            }
+        }
+        s
+    }
+
+    /// Splits every face into a fan of triangles from its first corner (exact for convex faces).
+    pub fn triangulate(&self) -> TriMesh {
+        let mut faces = Vec::with_capacity(self.indices.len().saturating_sub(2 * self.face_count()));
+        for f in self.faces() {
+            for k in 1..f.len().saturating_sub(1) {
+                faces.push([f[0], f[k], f[k + 1]]);
+            }
+        }
+        TriMesh { vertices: self.vertices.clone(), faces, normals: self.normals.clone() }
+    }
+
+    /// The axis-aligned bounding box, `None` without vertices.
+    pub fn bounding_box(&self) -> Option<Aabb> {
+        Aabb::of(&self.vertices)
+    }
+}
+
+/// Face counts by size.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct FaceSizes {
+    /// Faces with 3 corners.
+    pub triangles: usize,
+    /// Faces with 4 corners.
+    pub quads: usize,
+    /// Faces with 5 or more corners.
+    pub larger: usize,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fan_triangulation_keeps_orientation() {
+        let v = vec![Point3::origin(); 5];
+        let m = PolyMesh::from_faces(v, [vec![0u32, 1, 2], vec![0, 1, 3, 4]]);
+        assert_eq!(m.face_sizes(), FaceSizes { triangles: 1, quads: 1, larger: 0 });
+        assert_eq!(m.triangulate().faces, vec![[0, 1, 2], [0, 1, 3], [0, 3, 4]]);
+    }
+}

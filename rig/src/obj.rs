@@ -1,0 +1,219 @@
+//! Wavefront OBJ: the common subset (`v`, `vn`, `vt`, `f` with `v`, `v/vt`, `v//vn`, `v/vt/vn` corners,
+//! negative relative indices, polygons of any size). Grouping, material and smoothing statements are
+//! read past; an unknown statement is an error, so a file that is not OBJ is not read as an empty mesh.
+
+use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::math::{Point3, Vector3};
+use crate::{PointCloud, PolyMesh};
+use std::io::Write;
+use std::path::Path;
+
+/// Statements read past: grouping, materials, smoothing, free-form geometry and display attributes.
+const IGNORED: &[&str] = &[
+    "vt",
+    "vp",
+    "o",
+    "g",
+    "s",
+    "mg",
+    "usemtl",
+    "mtllib",
+    "l",
+    "p",
+    "cstype",
+    "deg",
+    "bmat",
+    "step",
+    "curv",
+    "curv2",
+    "surf",
+    "parm",
+    "trim",
+    "hole",
+    "scrv",
+    "sp",
+    "end",
+    "con",
+    "bevel",
+    "c_interp",
+    "d_interp",
+    "lod",
+    "usemap",
+    "maplib",
+    "shadow_obj",
+    "trace_obj",
+    "ctech",
+    "stech",
+    "call",
+    "csh",
+];
+
+/// What an OBJ file holds, beyond the mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjFile {
+    /// Vertices, faces, and per-vertex normals where the file pairs each vertex with one normal.
+    pub mesh: PolyMesh,
+    /// Per-vertex colours from `v x y z r g b` lines (0–1 floats scaled to 0–255), when every vertex has one.
+    pub colors: Option<Vec<[u8; 3]>>,
+    /// Number of `vn` lines.
+    pub normal_count: usize,
+    /// Number of `vt` lines.
+    pub texcoord_count: usize,
+}
+
+fn number(tok: &str, line: usize) -> Result<f64, ParseError> {
+    tok.parse::<f64>()
+        .map_err(|_| ParseError::new(Location::Line(line), Problem::NotANumber(tok.chars().take(40).collect())))
+}
+
+/// Resolves a 1-based (or negative, relative) OBJ index against `count` items.
+fn resolve(tok: &str, count: usize, line: usize) -> Result<usize, ParseError> {
+    let at = Location::Line(line);
+    let i: i64 =
+        tok.parse().map_err(|_| ParseError::new(at.clone(), Problem::NotANumber(tok.chars().take(40).collect())))?;
+    let zero_based = if i < 0 { count as i64 + i } else { i - 1 };
+    if i == 0 || zero_based < 0 || zero_based >= count as i64 {
+        return Err(ParseError::new(at, Problem::IndexOutOfRange { index: zero_based, count }));
+    }
+    Ok(zero_based as usize)
+}
+
+/// Parses OBJ text.
+pub fn parse(bytes: &[u8]) -> Result<ObjFile, ParseError> {
+    let text = String::from_utf8_lossy(bytes);
+    let mut mesh = PolyMesh::default();
+    let mut colors: Vec<[u8; 3]> = Vec::new();
+    let mut normals: Vec<Vector3> = Vec::new();
+    let mut texcoord_count = 0usize;
+    // The normal each vertex is paired with by the faces; any vertex paired with two different normals
+    // means the file's normals are per corner, which a per-vertex mesh cannot hold.
+    let mut vertex_normal: Vec<Option<usize>> = Vec::new();
+    let mut normals_consistent = true;
+    let mut face = Vec::new();
+    for (k, raw) in text.lines().enumerate() {
+        let line = k + 1;
+        let content = raw.split('#').next().unwrap_or("");
+        let mut toks = content.split_whitespace();
+        let Some(kw) = toks.next() else { continue };
+        let nums = |toks: std::str::SplitWhitespace<'_>| toks.map(|t| number(t, line)).collect::<Result<Vec<_>, _>>();
+        match kw {
+            "v" => {
+                let v = nums(toks)?;
+                if v.len() < 3 {
+                    return Err(ParseError::new(
+                        Location::Line(line),
+                        Problem::Invalid(format!("`v` needs 3 coordinates, has {}", v.len())),
+                    ));
+                }
+                if v.iter().take(3).any(|c| !c.is_finite()) {
+                    return Err(ParseError::new(Location::Line(line), Problem::NonFinite("vertex position".into())));
+                }
+                mesh.vertices.push(Point3::new(v[0], v[1], v[2]));
+                vertex_normal.push(None);
+                if v.len() == 6 {
+                    colors.push([v[3], v[4], v[5]].map(|c| (c * 255.0).round().clamp(0.0, 255.0) as u8));
+                }
+            }
+            "vn" => {
+                let v = nums(toks)?;
+                if v.len() != 3 {
+                    return Err(ParseError::new(
+                        Location::Line(line),
+                        Problem::Invalid(format!("`vn` needs 3 components, has {}", v.len())),
+                    ));
+                }
+                normals.push(Vector3::new(v[0], v[1], v[2]));
+            }
+            "f" => {
+                face.clear();
+                for corner in toks {
+                    let mut parts = corner.split('/');
+                    let v = resolve(parts.next().unwrap_or(""), mesh.vertices.len(), line)?;
+                    let _vt =
+                        parts.next().filter(|s| !s.is_empty()).map(|t| resolve(t, texcoord_count, line)).transpose()?;
+                    let vn =
+                        parts.next().filter(|s| !s.is_empty()).map(|t| resolve(t, normals.len(), line)).transpose()?;
+                    match (vertex_normal[v], vn) {
+                        (_, None) => normals_consistent = false,
+                        (None, Some(n)) => vertex_normal[v] = Some(n),
+                        (Some(old), Some(n)) if old != n && normals[old] != normals[n] => normals_consistent = false,
+                        _ => {}
+                    }
+                    face.push(v as u32);
+                }
+                if face.len() < 3 {
+                    return Err(ParseError::new(Location::Line(line), Problem::DegenerateFace(face.len())));
+                }
+                mesh.push_face(&face);
+            }
+            "vt" => texcoord_count += 1,
+            _ if IGNORED.contains(&kw) => {}
+            _ => {
+                let shown: String = kw.chars().take(40).collect();
+                return Err(ParseError::new(
+                    Location::Line(line),
+                    Problem::Invalid(format!("unknown OBJ statement `{shown}`")),
+                ));
+            }
+        }
+    }
+    if normals_consistent && !normals.is_empty() && mesh.face_count() > 0 && vertex_normal.iter().all(Option::is_some) {
+        mesh.normals = Some(vertex_normal.iter().map(|n| normals[n.unwrap()]).collect());
+    } else if mesh.face_count() == 0 && normals.len() == mesh.vertices.len() && !normals.is_empty() {
+        // A point cloud written as `v`/`vn` pairs: the n-th normal belongs to the n-th vertex.
+        mesh.normals = Some(normals.clone());
+    }
+    let colors = (!colors.is_empty() && colors.len() == mesh.vertices.len()).then_some(colors);
+    Ok(ObjFile { mesh, colors, normal_count: normals.len(), texcoord_count })
+}
+
+/// Reads an OBJ file.
+pub fn read(path: &Path) -> Result<ObjFile, Error> {
+    parse(&read_bytes(path)?).map_err(|e| e.with_path(path))
+}
+
+fn write_vertices(out: &mut Vec<u8>, positions: &[Point3], colors: Option<&[[u8; 3]]>, normals: Option<&[Vector3]>) {
+    for (i, p) in positions.iter().enumerate() {
+        let _ = write!(out, "v {} {} {}", p.x, p.y, p.z);
+        if let Some(c) = colors {
+            let _ = write!(out, " {} {} {}", c[i][0] as f64 / 255.0, c[i][1] as f64 / 255.0, c[i][2] as f64 / 255.0);
+        }
+        out.push(b'\n');
+    }
+    for n in normals.into_iter().flatten() {
+        let _ = writeln!(out, "vn {} {} {}", n.x, n.y, n.z);
+    }
+}
+
+/// A mesh as OBJ text: `v` (and `vn` where the mesh has normals), then `f` lines, triangles and quads
+/// alike. Coordinates are written in shortest round-trip form, so reading gives back the same values.
+pub fn mesh_to_bytes(mesh: &PolyMesh) -> Vec<u8> {
+    let mut out = format!("# written by scanrig {}\n", env!("CARGO_PKG_VERSION")).into_bytes();
+    write_vertices(&mut out, &mesh.vertices, None, mesh.normals.as_deref());
+    for f in mesh.faces() {
+        out.push(b'f');
+        for &v in f {
+            let _ = if mesh.normals.is_some() { write!(out, " {0}//{0}", v + 1) } else { write!(out, " {}", v + 1) };
+        }
+        out.push(b'\n');
+    }
+    out
+}
+
+/// A point cloud as OBJ text: `v x y z [r g b]` and `vn` lines (OBJ has no place for confidence or
+/// view ids; use PLY to keep them).
+pub fn cloud_to_bytes(cloud: &PointCloud) -> Vec<u8> {
+    let mut out = format!("# written by scanrig {}\n", env!("CARGO_PKG_VERSION")).into_bytes();
+    write_vertices(&mut out, &cloud.positions, cloud.colors.as_deref(), cloud.normals.as_deref());
+    out
+}
+
+/// Writes a mesh as OBJ, atomically.
+pub fn write_mesh(path: &Path, mesh: &PolyMesh) -> Result<(), Error> {
+    write_atomic(path, &mesh_to_bytes(mesh))
+}
+
+/// Writes a point cloud as OBJ, atomically.
+pub fn write_cloud(path: &Path, cloud: &PointCloud) -> Result<(), Error> {
+    write_atomic(path, &cloud_to_bytes(cloud))
+}

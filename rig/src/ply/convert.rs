@@ -1,0 +1,155 @@
+//! From a raw [`PlyFile`] to clouds, meshes and range grids.
+
+use super::{Element, PlyFile};
+use crate::error::{Location, ParseError, Problem};
+use crate::math::{Point3, UnitVector3, Vector3};
+use crate::range_grid::{RangeGrid, Sensor};
+use crate::{PointCloud, PolyMesh};
+
+fn at(el: &Element, index: usize) -> Location {
+    Location::Element { name: el.def.name.clone(), index: index as u64, line: None }
+}
+
+fn missing(what: String) -> ParseError {
+    ParseError::new(Location::File, Problem::Missing(what))
+}
+
+fn vertex_element(ply: &PlyFile) -> Result<&Element, ParseError> {
+    ply.element("vertex").ok_or_else(|| missing("element `vertex`".into()))
+}
+
+/// Positions from `x y z`, refusing NaN and infinities.
+fn positions(v: &Element) -> Result<Vec<Point3>, ParseError> {
+    let col = |n: &str| v.scalar(n).ok_or_else(|| missing(format!("scalar property `{n}` of element `vertex`")));
+    let (x, y, z) = (col("x")?, col("y")?, col("z")?);
+    (0..v.len())
+        .map(|i| {
+            let p = Point3::new(x[i], y[i], z[i]);
+            if p.iter().all(|c| c.is_finite()) {
+                Ok(p)
+            } else {
+                Err(ParseError::new(at(v, i), Problem::NonFinite(format!("position ({}, {}, {})", x[i], y[i], z[i]))))
+            }
+        })
+        .collect()
+}
+
+fn normals(v: &Element) -> Option<Vec<Vector3>> {
+    let (x, y, z) = (v.scalar("nx")?, v.scalar("ny")?, v.scalar("nz")?);
+    Some((0..v.len()).map(|i| Vector3::new(x[i], y[i], z[i])).collect())
+}
+
+/// `red green blue` (or `diffuse_*`); integer types are 0–255, float types 0–1.
+fn colors(v: &Element) -> Option<Vec<[u8; 3]>> {
+    let names = [["red", "green", "blue"], ["diffuse_red", "diffuse_green", "diffuse_blue"]];
+    let cols = names.iter().find_map(|n| Some([v.scalar(n[0])?, v.scalar(n[1])?, v.scalar(n[2])?]))?;
+    let is_float = v
+        .def
+        .properties
+        .iter()
+        .any(|p| p.name.ends_with("red") && matches!(p.kind, super::PropertyKind::Scalar(t) if !t.is_integer()));
+    let to_u8 = |c: f64| if is_float { (c * 255.0).round().clamp(0.0, 255.0) as u8 } else { c.clamp(0.0, 255.0) as u8 };
+    Some((0..v.len()).map(|i| [to_u8(cols[0][i]), to_u8(cols[1][i]), to_u8(cols[2][i])]).collect())
+}
+
+/// The `vertex` element as a point cloud.
+pub fn cloud_from_ply(ply: &PlyFile) -> Result<PointCloud, ParseError> {
+    let v = vertex_element(ply)?;
+    Ok(PointCloud {
+        positions: positions(v)?,
+        normals: normals(v),
+        colors: colors(v),
+        confidence: v.scalar("confidence").map(|c| c.iter().map(|&x| x as f32).collect()),
+        view_id: v.scalar("view_id").map(|c| c.iter().map(|&x| x as u32).collect()),
+    })
+}
+
+/// Checks a vertex index and converts it.
+fn index(el: &Element, entry: usize, raw: f64, count: usize) -> Result<u32, ParseError> {
+    if raw >= 0.0 && (raw as usize) < count {
+        Ok(raw as u32)
+    } else {
+        Err(ParseError::new(at(el, entry), Problem::IndexOutOfRange { index: raw as i64, count }))
+    }
+}
+
+/// A mesh from `face` (lists of any size) or, failing that, `tristrips`.
+pub fn mesh_from_ply(ply: &PlyFile) -> Result<PolyMesh, ParseError> {
+    let v = vertex_element(ply)?;
+    let mut mesh = PolyMesh { vertices: positions(v)?, normals: normals(v), ..Default::default() };
+    let n = mesh.vertices.len();
+    if let Some(f) = ply.element("face") {
+        let (_, offsets, values) = f.first_list().ok_or_else(|| missing("a list property of element `face`".into()))?;
+        mesh.indices.reserve(values.len());
+        mesh.offsets.reserve(f.len());
+        let mut face = Vec::new();
+        for i in 0..f.len() {
+            let raw = &values[offsets[i]..offsets[i + 1]];
+            if raw.len() < 3 {
+                return Err(ParseError::new(at(f, i), Problem::DegenerateFace(raw.len())));
+            }
+            face.clear();
+            for &r in raw {
+                face.push(index(f, i, r, n)?);
+            }
+            mesh.push_face(&face);
+        }
+    } else if let Some(s) = ply.element("tristrips") {
+        let (_, offsets, values) =
+            s.first_list().ok_or_else(|| missing("a list property of element `tristrips`".into()))?;
+        for i in 0..s.len() {
+            // Strips are separated by −1; each new vertex makes a triangle with the two before it, every
+            // other one reversed to keep a consistent orientation; repeated vertices are stitching.
+            for strip in values[offsets[i]..offsets[i + 1]].split(|&x| x == -1.0) {
+                let strip: Vec<u32> = strip.iter().map(|&r| index(s, i, r, n)).collect::<Result<_, _>>()?;
+                for k in 2..strip.len() {
+                    let (a, b, c) = (strip[k - 2], strip[k - 1], strip[k]);
+                    if a == b || b == c || a == c {
+                        continue;
+                    }
+                    mesh.push_face(&if k % 2 == 0 { [a, b, c] } else { [b, a, c] });
+                }
+            }
+        }
+    } else {
+        return Err(missing("element `face` or `tristrips`".into()));
+    }
+    Ok(mesh)
+}
+
+/// A Stanford range scan: the `range_grid` element (one list of 0 or 1 vertex index per cell, row-major
+/// as stored) sized by `obj_info num_cols` and `num_rows`. The Cyberware sensor looks along −z, so the
+/// grid's sensor is `Sensor::Direction(+z)`.
+pub fn range_grid_from_ply(ply: &PlyFile) -> Result<RangeGrid, ParseError> {
+    let v = vertex_element(ply)?;
+    let pts = positions(v)?;
+    let g = ply.element("range_grid").ok_or_else(|| missing("element `range_grid`".into()))?;
+    let dim = |key: &str| {
+        ply.header
+            .obj_info_value(key)
+            .and_then(|s| s.parse::<usize>().ok())
+            .ok_or_else(|| missing(format!("`obj_info {key}` (the range grid's size)")))
+    };
+    let (w, h) = (dim("num_cols")?, dim("num_rows")?);
+    if w.checked_mul(h) != Some(g.len()) {
+        let msg = format!("range_grid has {} cells but obj_info says {w} × {h}", g.len());
+        return Err(ParseError::new(Location::File, Problem::Invalid(msg)));
+    }
+    let (_, offsets, values) =
+        g.first_list().ok_or_else(|| missing("a list property of element `range_grid`".into()))?;
+    let mut grid = RangeGrid::empty(w, h, Sensor::Direction(UnitVector3::new_unchecked(Vector3::z())));
+    for cell in 0..g.len() {
+        match &values[offsets[cell]..offsets[cell + 1]] {
+            [] => {}
+            [r] => {
+                grid.points[cell] = pts[index(g, cell, *r, pts.len())? as usize];
+                grid.valid[cell] = true;
+            }
+            more => {
+                let msg = format!("a range-grid cell holds {} vertices; at most 1 is allowed", more.len());
+                return Err(ParseError::new(at(g, cell), Problem::Invalid(msg)));
+            }
+        }
+    }
+    Ok(grid)
+}

@@ -1,0 +1,216 @@
+//! Writing PLY: binary little-endian by default, ASCII on request.
+
+use super::header::{Encoding, ScalarType};
+use crate::error::{Error, write_atomic};
+use crate::math::{Point3, Vector3};
+use crate::{PointCloud, PolyMesh};
+use std::path::Path;
+
+/// The type of written coordinates and normals.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Precision {
+    /// `float`: what every viewer reads; ~0.1 µm resolution at a metre, far below scanner noise.
+    #[default]
+    F32,
+    /// `double`: exact round trips of `f64` data.
+    F64,
+}
+
+/// How to write a PLY file.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct WriteOptions {
+    /// Body encoding (default binary little-endian).
+    pub encoding: Encoding,
+    /// Coordinate type (default `float`).
+    pub precision: Precision,
+    /// `comment` lines, e.g. `units mm`.
+    pub comments: Vec<String>,
+}
+
+impl Default for WriteOptions {
+    fn default() -> Self {
+        WriteOptions { encoding: Encoding::BinaryLittleEndian, precision: Precision::F32, comments: Vec::new() }
+    }
+}
+
+impl WriteOptions {
+    /// ASCII with the default precision.
+    pub fn ascii() -> Self {
+        WriteOptions { encoding: Encoding::Ascii, ..Default::default() }
+    }
+
+    /// Adds a `comment units <unit>` line, which [`Header::units`](super::Header::units) reads back.
+    pub fn with_units(mut self, unit: &str) -> Self {
+        self.comments.push(format!("units {unit}"));
+        self
+    }
+}
+
+struct Body {
+    out: Vec<u8>,
+    encoding: Encoding,
+    first_on_line: bool,
+}
+
+impl Body {
+    fn value(&mut self, t: ScalarType, v: f64) {
+        use std::io::Write;
+        match self.encoding {
+            Encoding::Ascii => {
+                if !self.first_on_line {
+                    self.out.push(b' ');
+                }
+                self.first_on_line = false;
+                // Rust's shortest round-trip formatting: parsing the text gives back the same value.
+                let _ = match t {
+                    ScalarType::F32 => write!(self.out, "{}", v as f32),
+                    ScalarType::F64 => write!(self.out, "{v}"),
+                    _ => write!(self.out, "{}", v as i64),
+                };
+            }
+            enc => {
+                let le = enc == Encoding::BinaryLittleEndian;
+                macro_rules! put {
+                    ($x:expr) => {
+                        self.out.extend_from_slice(&if le { $x.to_le_bytes() } else { $x.to_be_bytes() })
+                    };
+                }
+                match t {
+                    ScalarType::I8 => put!(v as i8),
+                    ScalarType::U8 => put!(v as u8),
+                    ScalarType::I16 => put!(v as i16),
+                    ScalarType::U16 => put!(v as u16),
+                    ScalarType::I32 => put!(v as i32),
+                    ScalarType::U32 => put!(v as u32),
+                    ScalarType::F32 => put!(v as f32),
+                    ScalarType::F64 => put!(v),
+                }
+            }
+        }
+    }
+
+    fn end_entry(&mut self) {
+        if self.encoding == Encoding::Ascii {
+            self.out.push(b'\n');
+            self.first_on_line = true;
+        }
+    }
+}
+
+fn header(opts: &WriteOptions, elements: &[(&str, usize, Vec<String>)]) -> Vec<u8> {
+    let mut h = format!("ply\nformat {} 1.0\n", opts.encoding.name());
+    h += &format!("comment written by scanrig {}\n", env!("CARGO_PKG_VERSION"));
+    for c in &opts.comments {
+        h += &format!("comment {c}\n");
+    }
+    for (name, count, props) in elements {
+        h += &format!("element {name} {count}\n");
+        for p in props {
+            h += &format!("property {p}\n");
+        }
+    }
+    h += "end_header\n";
+    h.into_bytes()
+}
+
+fn real(opts: &WriteOptions) -> ScalarType {
+    match opts.precision {
+        Precision::F32 => ScalarType::F32,
+        Precision::F64 => ScalarType::F64,
+    }
+}
+
+fn xyz_props(t: ScalarType, prefix: &str) -> Vec<String> {
+    ["x", "y", "z"].iter().map(|a| format!("{} {prefix}{a}", t.name())).collect()
+}
+
+fn vertex_props(opts: &WriteOptions, normals: bool) -> Vec<String> {
+    let mut props = xyz_props(real(opts), "");
+    if normals {
+        props.extend(xyz_props(real(opts), "n"));
+    }
+    props
+}
+
+fn write_point(body: &mut Body, t: ScalarType, p: &Point3, n: Option<&Vector3>) {
+    for c in p.iter() {
+        body.value(t, *c);
+    }
+    for c in n.into_iter().flat_map(|n| n.iter()) {
+        body.value(t, *c);
+    }
+}
+
+/// A point cloud as PLY bytes: `x y z`, then `nx ny nz`, `red green blue` (uchar), `confidence` (float)
+/// and `view_id` (uint) where present.
+pub fn cloud_to_bytes(cloud: &PointCloud, opts: &WriteOptions) -> Vec<u8> {
+    let t = real(opts);
+    let mut props = vertex_props(opts, cloud.normals.is_some());
+    if cloud.colors.is_some() {
+        props.extend(["uchar red", "uchar green", "uchar blue"].map(String::from));
+    }
+    if cloud.confidence.is_some() {
+        props.push("float confidence".into());
+    }
+    if cloud.view_id.is_some() {
+        props.push("uint view_id".into());
+    }
+    let mut body =
+        Body { out: header(opts, &[("vertex", cloud.len(), props)]), encoding: opts.encoding, first_on_line: true };
+    for (i, p) in cloud.positions.iter().enumerate() {
+        write_point(&mut body, t, p, cloud.normals.as_ref().map(|n| &n[i]));
+        if let Some(c) = &cloud.colors {
+            c[i].iter().for_each(|&v| body.value(ScalarType::U8, v as f64));
+        }
+        if let Some(c) = &cloud.confidence {
+            body.value(ScalarType::F32, c[i] as f64);
+        }
+        if let Some(v) = &cloud.view_id {
+            body.value(ScalarType::U32, v[i] as f64);
+        }
+        body.end_entry();
+    }
+    body.out
+}
+
+/// A polygon mesh as PLY bytes: vertices (with normals where present), faces as
+/// `list uchar int vertex_indices` (quads as 4-lists).
+///
+/// # Panics
+/// Never for meshes built by this crate; a face with more than 255 corners cannot be written as a
+/// `uchar` list and is split into a fan first.
+pub fn mesh_to_bytes(mesh: &PolyMesh, opts: &WriteOptions) -> Vec<u8> {
+    let t = real(opts);
+    let fan;
+    let mesh = if mesh.faces().any(|f| f.len() > 255) {
+        fan = mesh.triangulate().to_poly();
+        &fan
+    } else {
+        mesh
+    };
+    let elements = [
+        ("vertex", mesh.vertices.len(), vertex_props(opts, mesh.normals.is_some())),
+        ("face", mesh.face_count(), vec!["list uchar int vertex_indices".to_string()]),
+    ];
+    let mut body = Body { out: header(opts, &elements), encoding: opts.encoding, first_on_line: true };
+    for (i, p) in mesh.vertices.iter().enumerate() {
+        write_point(&mut body, t, p, mesh.normals.as_ref().map(|n| &n[i]));
+        body.end_entry();
+    }
+    for f in mesh.faces() {
+        body.value(ScalarType::U8, f.len() as f64);
+        f.iter().for_each(|&v| body.value(ScalarType::I32, v as f64));
+        body.end_entry();
+    }
+    body.out
+}
+
+/// Writes a point cloud atomically (see [`cloud_to_bytes`]).
+pub fn write_cloud(path: &Path, cloud: &PointCloud, opts: &WriteOptions) -> Result<(), Error> {
+    write_atomic(path, &cloud_to_bytes(cloud, opts))
+}
+
+/// Writes a polygon mesh atomically (see [`mesh_to_bytes`]).
+pub fn write_mesh(path: &Path, mesh: &PolyMesh, opts: &WriteOptions) -> Result<(), Error> {
+    write_atomic(path, &mesh_to_bytes(mesh, opts))
+}

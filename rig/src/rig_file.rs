@@ -1,0 +1,272 @@
+//! The rig description: camera, optional projector, line lasers and turntable, read from and written to
+//! a human-editable TOML file with units in the field names.
+//!
+//! ```toml
+//! format = 1
+//! name = "desk scanner"
+//!
+//! [camera]                       # pinhole + OpenCV distortion, pixels
+//! width_px = 1280
+//! height_px = 1024
+//! fx_px = 1400.0
+//! fy_px = 1400.0
+//! cx_px = 639.5
+//! cy_px = 511.5
+//! distortion = [0.0, 0.0, 0.0, 0.0, 0.0]   # k1 k2 p1 p2 k3 (OpenCV order)
+//!
+//! [projector]                    # X_p = rotation · X_c + translation_mm
+//! rotation = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+//! translation_mm = [-150.0, 0.0, 0.0]
+//! [projector.lens]               # same fields as [camera]
+//! width_px = 1024
+//! # …
+//!
+//! [[lasers]]                     # plane n·X = distance_mm in the camera frame
+//! name = "left"
+//! normal = [0.866, 0.0, 0.5]
+//! distance_mm = 150.0
+//!
+//! [turntable]                    # camera frame; direction points up out of the platter
+//! axis_point_mm = [0.0, 60.0, 400.0]
+//! axis_direction = [0.0, -1.0, 0.0]
+//! ```
+
+use crate::camera::{Distortion, PinholeCamera};
+use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::laser::LaserPlane;
+use crate::math::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, UnitVector3, Vector3};
+use crate::projector::Projector;
+use crate::turntable::TurntableAxis;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The rig-file format this code reads and writes.
+pub const RIG_FORMAT: u32 = 1;
+
+/// A named line laser.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Laser {
+    /// A name for messages and file names (`left`, `right`).
+    pub name: String,
+    /// Its light plane.
+    pub plane: LaserPlane,
+}
+
+/// A whole scanner: everything triangulation and placement need.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Rig {
+    /// A free-form name.
+    pub name: String,
+    /// The camera.
+    pub camera: PinholeCamera,
+    /// The projector of a structured-light rig.
+    pub projector: Option<Projector>,
+    /// The line lasers of a laser rig.
+    pub lasers: Vec<Laser>,
+    /// The turntable axis, where there is a turntable.
+    pub turntable: Option<TurntableAxis>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RigToml {
+    format: u32,
+    #[serde(default)]
+    name: String,
+    camera: LensToml,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    projector: Option<ProjectorToml>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    lasers: Vec<LaserToml>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    turntable: Option<TurntableToml>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LensToml {
+    width_px: u32,
+    height_px: u32,
+    fx_px: f64,
+    fy_px: f64,
+    cx_px: f64,
+    cy_px: f64,
+    #[serde(default)]
+    distortion: [f64; 5],
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ProjectorToml {
+    rotation: [[f64; 3]; 3],
+    translation_mm: [f64; 3],
+    lens: LensToml,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LaserToml {
+    name: String,
+    normal: [f64; 3],
+    distance_mm: f64,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TurntableToml {
+    axis_point_mm: [f64; 3],
+    axis_direction: [f64; 3],
+}
+
+fn invalid(field: &str, msg: impl Into<String>) -> ParseError {
+    ParseError::new(Location::Field(field.to_string()), Problem::Invalid(msg.into()))
+}
+
+fn lens_from(t: &LensToml, field: &str) -> Result<PinholeCamera, ParseError> {
+    let cam = PinholeCamera {
+        width: t.width_px,
+        height: t.height_px,
+        fx: t.fx_px,
+        fy: t.fy_px,
+        cx: t.cx_px,
+        cy: t.cy_px,
+        distortion: Distortion::from_opencv(t.distortion),
+    };
+    cam.validate().map_err(|m| invalid(field, m))?;
+    Ok(cam)
+}
+
+fn lens_to(c: &PinholeCamera) -> LensToml {
+    LensToml {
+        width_px: c.width,
+        height_px: c.height,
+        fx_px: c.fx,
+        fy_px: c.fy,
+        cx_px: c.cx,
+        cy_px: c.cy,
+        distortion: c.distortion.to_opencv(),
+    }
+}
+
+fn unit(v: [f64; 3], field: &str) -> Result<UnitVector3, ParseError> {
+    let v = Vector3::from(v);
+    let n = v.norm();
+    if !(n > 0.0 && n.is_finite()) {
+        return Err(invalid(field, "must be a non-zero, finite direction"));
+    }
+    Ok(UnitVector3::new_normalize(v))
+}
+
+fn finite(v: &[f64], field: &str) -> Result<(), ParseError> {
+    if v.iter().all(|x| x.is_finite()) { Ok(()) } else { Err(invalid(field, "must be finite")) }
+}
+
+impl Rig {
+    /// Parses a rig from TOML text.
+    pub fn from_toml_str(text: &str) -> Result<Rig, ParseError> {
+        let t: RigToml = toml::from_str(text).map_err(|e| {
+            let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1).unwrap_or(1);
+            ParseError::new(Location::Line(line), Problem::Syntax(e.message().trim().to_string()))
+        })?;
+        if t.format != RIG_FORMAT {
+            return Err(invalid(
+                "format",
+                format!("rig format {} is not supported (this scanrig reads {RIG_FORMAT})", t.format),
+            ));
+        }
+        let camera = lens_from(&t.camera, "camera")?;
+        let projector = t
+            .projector
+            .as_ref()
+            .map(|p| -> Result<Projector, ParseError> {
+                let lens = lens_from(&p.lens, "projector.lens")?;
+                let m = Matrix3::from_row_slice(p.rotation.as_flattened());
+                finite(m.as_slice(), "projector.rotation")?;
+                let orthonormal = (m.transpose() * m - Matrix3::identity()).norm() < 1e-6 && m.determinant() > 0.0;
+                if !orthonormal {
+                    return Err(invalid(
+                        "projector.rotation",
+                        "must be a rotation matrix (orthonormal, determinant +1)",
+                    ));
+                }
+                finite(&p.translation_mm, "projector.translation_mm")?;
+                let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&m));
+                let from_camera = Isometry3::from_parts(Translation3::from(Vector3::from(p.translation_mm)), rot);
+                Ok(Projector { lens, from_camera })
+            })
+            .transpose()?;
+        let mut lasers = Vec::new();
+        for (i, l) in t.lasers.iter().enumerate() {
+            let field = format!("lasers[{i}]");
+            finite(&[l.distance_mm], &field)?;
+            let plane = LaserPlane::new(unit(l.normal, &format!("{field}.normal"))?.into_inner(), l.distance_mm)
+                .ok_or_else(|| invalid(&field, "not a plane"))?;
+            lasers.push(Laser { name: l.name.clone(), plane });
+        }
+        let turntable = t
+            .turntable
+            .as_ref()
+            .map(|tt| -> Result<TurntableAxis, ParseError> {
+                finite(&tt.axis_point_mm, "turntable.axis_point_mm")?;
+                Ok(TurntableAxis {
+                    point: Point3::from(tt.axis_point_mm),
+                    direction: unit(tt.axis_direction, "turntable.axis_direction")?,
+                })
+            })
+            .transpose()?;
+        Ok(Rig { name: t.name, camera, projector, lasers, turntable })
+    }
+
+    /// The rig as TOML text, with a comment block stating the conventions.
+    pub fn to_toml_string(&self) -> String {
+        let t = RigToml {
+            format: RIG_FORMAT,
+            name: self.name.clone(),
+            camera: lens_to(&self.camera),
+            projector: self.projector.as_ref().map(|p| {
+                let r = p.from_camera.rotation.to_rotation_matrix();
+                let m = r.matrix();
+                ProjectorToml {
+                    rotation: [0, 1, 2].map(|i| [m[(i, 0)], m[(i, 1)], m[(i, 2)]]),
+                    translation_mm: p.from_camera.translation.vector.into(),
+                    lens: lens_to(&p.lens),
+                }
+            }),
+            lasers: self
+                .lasers
+                .iter()
+                .map(|l| LaserToml {
+                    name: l.name.clone(),
+                    normal: l.plane.normal.into_inner().into(),
+                    distance_mm: l.plane.distance,
+                })
+                .collect(),
+            turntable: self.turntable.map(|a| TurntableToml {
+                axis_point_mm: a.point.coords.into(),
+                axis_direction: a.direction.into_inner().into(),
+            }),
+        };
+        let body = toml::to_string(&t).expect("a rig always serialises: plain numbers, strings and arrays");
+        format!(
+            "# scanrig rig description. Frames follow OpenCV: camera x right, y down, z forward; millimetres.\n\
+             # camera/lens: intrinsics in px, distortion = [k1, k2, p1, p2, k3].\n\
+             # projector: X_projector = rotation · X_camera + translation_mm.\n\
+             # lasers: plane normal · X = distance_mm in the camera frame.\n\
+             # turntable: platter centre and up axis in the camera frame.\n\n{body}"
+        )
+    }
+
+    /// Reads a rig file.
+    pub fn read(path: &Path) -> Result<Rig, Error> {
+        let bytes = read_bytes(path)?;
+        let text = std::str::from_utf8(&bytes).map_err(|e| {
+            ParseError::new(Location::File, Problem::Invalid(format!("not UTF-8 text: {e}"))).with_path(path)
+        })?;
+        Rig::from_toml_str(text).map_err(|e| e.with_path(path))
+    }
+
+    /// Writes a rig file atomically.
+    pub fn write(&self, path: &Path) -> Result<(), Error> {
+        write_atomic(path, self.to_toml_string().as_bytes())
+    }
+}
