@@ -89,6 +89,8 @@ pub fn parse(bytes: &[u8]) -> Result<ObjFile, ParseError> {
     // means the file's normals are per corner, which a per-vertex mesh cannot hold.
     let mut vertex_normal: Vec<Option<usize>> = Vec::new();
     let mut normals_consistent = true;
+    // Whether every corner names the normal with its vertex's own index, as scanrig (and MeshLab) write.
+    let mut paired_by_index = true;
     let mut face = Vec::new();
     for (k, raw) in text.lines().enumerate() {
         let line = k + 1;
@@ -133,6 +135,7 @@ pub fn parse(bytes: &[u8]) -> Result<ObjFile, ParseError> {
                         parts.next().filter(|s| !s.is_empty()).map(|t| resolve(t, texcoord_count, line)).transpose()?;
                     let vn =
                         parts.next().filter(|s| !s.is_empty()).map(|t| resolve(t, normals.len(), line)).transpose()?;
+                    paired_by_index &= vn == Some(v);
                     match (vertex_normal[v], vn) {
                         (_, None) => normals_consistent = false,
                         (None, Some(n)) => vertex_normal[v] = Some(n),
@@ -157,11 +160,11 @@ pub fn parse(bytes: &[u8]) -> Result<ObjFile, ParseError> {
             }
         }
     }
-    if normals_consistent && !normals.is_empty() && mesh.face_count() > 0 && vertex_normal.iter().all(Option::is_some) {
-        mesh.normals = Some(vertex_normal.iter().map(|n| normals[n.unwrap()]).collect());
-    } else if mesh.face_count() == 0 && normals.len() == mesh.vertices.len() && !normals.is_empty() {
-        // A point cloud written as `v`/`vn` pairs: the n-th normal belongs to the n-th vertex.
+    if !normals.is_empty() && normals.len() == mesh.vertices.len() && paired_by_index {
+        // The n-th normal belongs to the n-th vertex (also a point cloud written as `v`/`vn` pairs).
         mesh.normals = Some(normals.clone());
+    } else if normals_consistent && !normals.is_empty() && vertex_normal.iter().all(Option::is_some) {
+        mesh.normals = Some(vertex_normal.iter().map(|n| normals[n.unwrap()]).collect());
     }
     let colors = (!colors.is_empty() && colors.len() == mesh.vertices.len()).then_some(colors);
     Ok(ObjFile { mesh, colors, normal_count: normals.len(), texcoord_count })

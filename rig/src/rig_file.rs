@@ -199,8 +199,9 @@ impl Rig {
         for (i, l) in t.lasers.iter().enumerate() {
             let field = format!("lasers[{i}]");
             finite(&[l.distance_mm], &field)?;
-            let plane = LaserPlane::new(unit(l.normal, &format!("{field}.normal"))?.into_inner(), l.distance_mm)
-                .ok_or_else(|| invalid(&field, "not a plane"))?;
+            // The file's plane is n·X = d for the n as written: normalising n scales d with it.
+            let plane = LaserPlane::new(Vector3::from(l.normal), l.distance_mm)
+                .ok_or_else(|| invalid(&format!("{field}.normal"), "must be a non-zero, finite direction"))?;
             lasers.push(Laser { name: l.name.clone(), plane });
         }
         let turntable = t

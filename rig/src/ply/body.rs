@@ -169,12 +169,12 @@ fn read_element(src: &mut Source<'_>, def: &ElementDef) -> Result<Element, Parse
                     let n = n as u64;
                     let need = n.saturating_mul(src.min_bytes(item));
                     if need > src.remaining() as u64 + slack {
-                        let problem = Problem::CountTooLarge {
-                            count: n,
-                            min_bytes: src.min_bytes(item),
-                            available: src.remaining() as u64,
-                        };
-                        return Err(locate(problem, src));
+                        let what = format!(
+                            "the {n} items of list `{}` (at least {need} bytes; {} remain)",
+                            prop.name,
+                            src.remaining()
+                        );
+                        return Err(locate(Problem::Truncated(what), src));
                     }
                     for _ in 0..n {
                         values.push(src.value(item).map_err(|p| locate(p, src))?);

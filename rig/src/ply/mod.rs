@@ -6,7 +6,7 @@
 //! any size, or Stanford `tristrips` turned into triangles) and [`read_range_grid`] (Stanford
 //! `range_grid` with its `obj_info num_cols/num_rows`).
 //!
-//! Bad files give an [`Error`](crate::Error) naming the file, the element and the entry (or the header
+//! Bad files give an [`Error`] naming the file, the element and the entry (or the header
 //! line). Counts are checked against the bytes left before anything is allocated, so a header that
 //! claims a billion vertices in a 1 kB file is refused, not attempted.
 //!

@@ -1,0 +1,116 @@
+//! The `scanrig` command line, run as a user would in a temporary folder.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// A temporary working folder, removed when dropped.
+struct Dir(tempfile::TempDir);
+
+impl Dir {
+    fn new() -> Self {
+        Dir(tempfile::tempdir().unwrap())
+    }
+    fn path(&self, name: &str) -> PathBuf {
+        self.0.path().join(name)
+    }
+    fn write(&self, name: &str, bytes: &[u8]) -> PathBuf {
+        let p = self.path(name);
+        std::fs::write(&p, bytes).unwrap();
+        p
+    }
+}
+
+fn scanrig(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_scanrig"));
+    for a in args {
+        cmd.arg(a);
+    }
+    cmd.output().unwrap()
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn help_lists_every_subcommand_with_one_line() {
+    let o = scanrig(&[&"--help"]);
+    assert!(o.status.success());
+    let text = stdout(&o);
+    for cmd in ["info", "convert"] {
+        let line =
+            text.lines().find(|l| l.trim_start().starts_with(cmd)).unwrap_or_else(|| panic!("{cmd} not in\n{text}"));
+        assert!(line.len() > cmd.len() + 10, "{cmd} has no description: {line}");
+    }
+}
+
+const QUAD_OBJ: &[u8] = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 1\nf 1 2 3 4\nf 1 2 5\n";
+
+#[test]
+fn info_describes_a_mesh_in_text_and_json() {
+    let d = Dir::new();
+    let obj = d.write("m.obj", QUAD_OBJ);
+    let o = scanrig(&[&"info", &obj]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("faces: 2 (1 triangles, 1 quads, 0 larger)"), "{}", stdout(&o));
+    let o = scanrig(&[&"info", &obj, &"--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(v["vertices"], 5);
+    assert_eq!(v["bounding_box"]["max"], serde_json::json!([1.0, 1.0, 1.0]));
+}
+
+#[test]
+fn convert_writes_files_that_read_back() {
+    let d = Dir::new();
+    let obj = d.write("m.obj", QUAD_OBJ);
+    for (out, flags) in [("m.ply", vec![]), ("a.ply", vec!["--ascii", "--double"]), ("back.obj", vec![])] {
+        let out = d.path(out);
+        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"convert", &obj, &out];
+        for f in &flags {
+            args.push(f);
+        }
+        let o = scanrig(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let m = rig::read_mesh(&out).unwrap();
+        assert_eq!(m, rig::read_mesh(&obj).unwrap(), "{}", out.display());
+    }
+    let head = std::fs::read(d.path("a.ply")).unwrap();
+    assert!(head.starts_with(b"ply\nformat ascii 1.0\n"));
+}
+
+#[test]
+fn errors_name_the_file_and_the_spot_and_exit_nonzero() {
+    let d = Dir::new();
+    let bad = d.write("bad.ply", b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 oops\n");
+    let o = scanrig(&[&"info", &bad]);
+    assert!(!o.status.success());
+    let err = stderr(&o);
+    assert!(err.contains("bad.ply: element `vertex` #0 (line 8): `oops` is not a number"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+
+    let o = scanrig(&[&"info", &Path::new("/no/such/file.off")]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("/no/such/file.off"), "{}", stderr(&o));
+
+    let o = scanrig(&[&"info", &d.write("x.stl", b"solid")]);
+    assert!(stderr(&o).contains("unrecognised file type"), "{}", stderr(&o));
+}
+
+#[test]
+fn info_summarises_a_rig_and_an_opencv_camera() {
+    let d = Dir::new();
+    let rig_text = "format = 1\nname = \"bench\"\n[camera]\nwidth_px = 640\nheight_px = 480\nfx_px = 536.0\nfy_px = 536.0\n\
+cx_px = 320.0\ncy_px = 240.0\n[[lasers]]\nname = \"left\"\nnormal = [0.866, 0.0, 0.5]\ndistance_mm = 150.0\n";
+    let o = scanrig(&[&"info", &d.write("rig.toml", rig_text.as_bytes())]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("camera: 640×480 px, fx 536.000"), "{}", stdout(&o));
+    assert!(stdout(&o).contains("laser left: plane"), "{}", stdout(&o));
+
+    let yml = Path::new(env!("CARGO_MANIFEST_DIR")).join("rig/tests/fixtures/opencv_camera.yml");
+    let o = scanrig(&[&"info", &yml]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("k1 -0.27"), "{}", stdout(&o));
+}
