@@ -11,6 +11,9 @@
 //! - **Files**: [`ply`] (every variant in, binary or ASCII out), [`obj`], [`off`], [`opencv_yaml`]
 //!   (camera intrinsics as OpenCV writes them), and [`read_mesh`]/[`write_mesh`] choosing by extension.
 //!   Errors name the file and the line, element entry or field ([`Error`]).
+//! - **Captures**: [`patterns`] (Gray code and phase-shift sequences, generated once for the simulator,
+//!   the capture session and the decoder), [`image`] (8-bit PNG frames), [`npy`] (NumPy arrays for
+//!   per-pixel truth maps) and the [`scan_folder`] manifest.
 //!
 //! Conventions (see each type's `# Conventions`): millimetres and degrees; OpenCV camera frame (x right,
 //! y down, z forward); pixel (0, 0) is the centre of the top-left pixel. [`math`] pins `Real = f64`.
@@ -68,10 +71,19 @@ pub use point_cloud::{Aabb, PointCloud};
 pub mod mesh;
 pub use mesh::{FaceSizes, PolyMesh, TriMesh};
 
+pub mod image;
+pub mod npy;
 pub mod obj;
 pub mod off;
 pub mod opencv_yaml;
 pub mod ply;
+
+/// Structured-light and laser pattern sequences.
+pub mod patterns;
+pub use patterns::{Axis, Pattern, PhaseShift};
+
+pub mod scan_folder;
+pub use scan_folder::{Manifest, Method};
 
 /// Meshes and clouds by file extension.
 pub mod mesh_io;

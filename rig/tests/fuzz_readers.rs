@@ -1,4 +1,5 @@
-//! Fuzzing the readers: PLY (header, body and conversions), OBJ, OFF, OpenCV YAML and rig TOML must
+//! Fuzzing the readers: PLY (header, body and conversions), OBJ, OFF, OpenCV YAML, rig TOML, NumPy
+//! arrays, PNG frames and the scan manifest must
 //! return `Ok` or a typed error for any bytes — never panic, never allocate past what the input holds.
 //!
 //! Two harnesses: proptest over arbitrary bytes, and a seeded mutational fuzzer that starts from valid
@@ -26,6 +27,9 @@ fn read_everything(bytes: &[u8]) {
     let _ = rig::off::parse(bytes);
     let _ = rig::opencv_yaml::camera_from_bytes(bytes);
     let _ = rig::Rig::from_toml_str(&String::from_utf8_lossy(bytes));
+    let _ = rig::npy::parse(bytes);
+    let _ = rig::image::decode_png(bytes);
+    let _ = rig::Manifest::from_json(bytes);
 }
 
 fn seeds() -> Vec<Vec<u8>> {
@@ -80,6 +84,26 @@ cy_px = 240.0\ndistortion = [0.1, 0.0, 0.0, 0.0, 0.0]\n[[lasers]]\nname = \"l\"\
 [turntable]\naxis_point_mm = [0.0, 50.0, 400.0]\naxis_direction = [0.0, -1.0, 0.0]\n"
             .to_vec(),
     );
+    let npy = |data| rig::npy::to_bytes(&rig::npy::NpyArray { shape: vec![2, 2], data });
+    out.push(npy(rig::npy::NpyData::F64(vec![1.0, 2.0, 3.0, 4.0])));
+    out.push(npy(rig::npy::NpyData::U8(vec![1, 2, 3, 4])));
+    out.push(rig::image::png_bytes(&rig::image::Image8::gray(4, 3, (0..12).collect()), true));
+    let manifest = rig::Manifest {
+        format: rig::scan_folder::SCAN_FORMAT,
+        method: rig::Method::StructuredLight,
+        rig: "rig.toml".into(),
+        source: "fuzz".into(),
+        seed: Some(1),
+        views: vec![rig::scan_folder::View {
+            angle_deg: 10.0,
+            frames: rig::patterns::structured_light_sequence(4, 2, &[])
+                .into_iter()
+                .map(|pattern| rig::scan_folder::Frame { file: format!("f/{}.png", pattern.name()), pattern })
+                .collect(),
+            complete: true,
+        }],
+    };
+    out.push(serde_json::to_vec_pretty(&manifest).unwrap());
     out
 }
 
@@ -199,7 +223,10 @@ fn mutated_files_never_panic() {
             || rig::obj::parse(s).is_ok_and(|o| !o.mesh.vertices.is_empty())
             || rig::off::parse(s).is_ok()
             || rig::opencv_yaml::camera_from_bytes(s).is_ok()
-            || rig::Rig::from_toml_str(&String::from_utf8_lossy(s)).is_ok();
+            || rig::Rig::from_toml_str(&String::from_utf8_lossy(s)).is_ok()
+            || rig::npy::parse(s).is_ok()
+            || rig::image::decode_png(s).is_ok()
+            || rig::Manifest::from_json(s).is_ok();
         assert!(ok, "seed {i} does not parse");
     }
     let mut tried = 0u64;

@@ -1,0 +1,114 @@
+//! 8-bit images and PNG files: what cameras capture and the simulator writes.
+//!
+//! Frames are grey (1 channel) or RGB (3 channels), row-major, row 0 at the top. Reading accepts any
+//! PNG (grey, grey+alpha, RGB, RGBA, palette, 1–16 bits) and converts it; `to_gray` gives luminance.
+
+use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use std::path::Path;
+
+/// An 8-bit image.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Image8 {
+    /// Columns.
+    pub width: u32,
+    /// Rows.
+    pub height: u32,
+    /// 1 (grey) or 3 (RGB).
+    pub channels: u8,
+    /// `width · height · channels` bytes, row-major, channels interleaved.
+    pub data: Vec<u8>,
+}
+
+impl Image8 {
+    /// A grey image from its bytes.
+    pub fn gray(width: u32, height: u32, data: Vec<u8>) -> Self {
+        debug_assert_eq!(data.len(), width as usize * height as usize);
+        Image8 { width, height, channels: 1, data }
+    }
+
+    /// Grey by Rec. 601 luma (what OpenCV's `cvtColor(…, COLOR_RGB2GRAY)` computes).
+    pub fn to_gray(&self) -> Image8 {
+        if self.channels == 1 {
+            return self.clone();
+        }
+        let data = self
+            .data
+            .chunks_exact(self.channels as usize)
+            .map(|p| (0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64).round() as u8)
+            .collect();
+        Image8 { width: self.width, height: self.height, channels: 1, data }
+    }
+
+    /// The value at (col, row), channel 0.
+    pub fn at(&self, col: u32, row: u32) -> u8 {
+        self.data[(row as usize * self.width as usize + col as usize) * self.channels as usize]
+    }
+}
+
+/// PNG bytes of an image. `fast` trades file size for speed (the simulator writes thousands of frames).
+pub fn png_bytes(img: &Image8, fast: bool) -> Vec<u8> {
+    let mut out = Vec::with_capacity(img.data.len() / 2 + 1024);
+    {
+        let mut enc = png::Encoder::new(&mut out, img.width, img.height);
+        enc.set_color(if img.channels == 3 { png::ColorType::Rgb } else { png::ColorType::Grayscale });
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_compression(if fast { png::Compression::Fast } else { png::Compression::Balanced });
+        let mut w = enc.write_header().expect("writing to memory cannot fail");
+        w.write_image_data(&img.data).expect("the buffer matches the header");
+    }
+    out
+}
+
+/// Writes a PNG atomically.
+pub fn write_png(path: &Path, img: &Image8, fast: bool) -> Result<(), Error> {
+    write_atomic(path, &png_bytes(img, fast))
+}
+
+/// Decodes PNG bytes to 8 bits per channel; alpha is dropped, palettes expanded, 16-bit scaled.
+pub fn decode_png(bytes: &[u8]) -> Result<Image8, ParseError> {
+    let bad = |m: String| ParseError::new(Location::File, Problem::Invalid(m));
+    let mut dec = png::Decoder::new(std::io::Cursor::new(bytes));
+    dec.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
+    let mut reader = dec.read_info().map_err(|e| bad(format!("not a readable PNG: {e}")))?;
+    let (w, h) = (reader.info().width, reader.info().height);
+    // A header may claim any size: refuse what cannot be real before allocating for it.
+    if (w as u64) * (h as u64) > 1 << 28 {
+        return Err(bad(format!("a {w}×{h} image is larger than any camera frame")));
+    }
+    let size = reader.output_buffer_size().ok_or_else(|| bad("the image size overflows".into()))?;
+    let mut buf = vec![0u8; size];
+    let info = reader.next_frame(&mut buf).map_err(|e| bad(format!("corrupt PNG data: {e}")))?;
+    buf.truncate(info.buffer_size());
+    let (channels, keep): (u8, usize) = match info.color_type {
+        png::ColorType::Grayscale => (1, 1),
+        png::ColorType::GrayscaleAlpha => (1, 2),
+        png::ColorType::Rgb => (3, 3),
+        png::ColorType::Rgba => (3, 4),
+        png::ColorType::Indexed => return Err(bad("palette PNG was not expanded".into())),
+    };
+    let data = if keep == channels as usize {
+        buf
+    } else {
+        buf.chunks_exact(keep).flat_map(|p| p[..channels as usize].to_vec()).collect()
+    };
+    Ok(Image8 { width: w, height: h, channels, data })
+}
+
+/// Reads a PNG file.
+pub fn read_png(path: &Path) -> Result<Image8, Error> {
+    decode_png(&read_bytes(path)?).map_err(|e| e.with_path(path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn png_round_trip_grey_and_rgb() {
+        let g = Image8::gray(7, 3, (0..21).map(|i| (i * 12) as u8).collect());
+        assert_eq!(decode_png(&png_bytes(&g, true)).unwrap(), g);
+        let rgb = Image8 { width: 2, height: 2, channels: 3, data: (0..12).map(|i| (i * 20) as u8).collect() };
+        assert_eq!(decode_png(&png_bytes(&rgb, false)).unwrap(), rgb);
+        assert_eq!(rgb.to_gray().data.len(), 4);
+    }
+}

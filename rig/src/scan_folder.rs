@@ -1,0 +1,124 @@
+//! The scan folder: what a capture session (real or simulated) writes and the pipeline reads.
+//!
+//! ```text
+//! scan/
+//!   scan.json                 the manifest (below), rewritten atomically after every completed view
+//!   rig.toml                  the rig the scan was taken with
+//!   frames/view_000/00_white.png, 01_black.png, 02_gray_col_00.png, …
+//!   truth/                    simulator only: object.ply (object frame), view_000/depth.npy, …
+//! ```
+//!
+//! The manifest, field by field (`scan.json`):
+//! - `format`: this layout's version, [`SCAN_FORMAT`];
+//! - `method`: `structured_light`, `laser` or `board` (calibration captures of a chessboard);
+//! - `rig`: the rig file, relative to the folder;
+//! - `source`: who wrote the scan (`simulator`, `acquire`);
+//! - `seed`: the simulator's noise seed, where there is one;
+//! - `views`: one entry per turntable step or board pose, each with `angle_deg` (turntable angle, counter-
+//!   clockwise seen from above), `frames` (relative `file` and the [`Pattern`] it shows) and `complete`
+//!   (false until every frame of the view is on disk, so an interrupted scan resumes at the first
+//!   incomplete view).
+
+use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::patterns::Pattern;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The manifest's file name inside a scan folder.
+pub const MANIFEST_NAME: &str = "scan.json";
+/// The scan-folder format this code reads and writes.
+pub const SCAN_FORMAT: u32 = 1;
+
+/// How the scan was captured.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// Camera + projector.
+    StructuredLight,
+    /// Camera + line lasers.
+    Laser,
+    /// Chessboard captures for calibration.
+    Board,
+}
+
+/// One captured frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Frame {
+    /// The PNG, relative to the scan folder.
+    pub file: String,
+    /// What the frame shows.
+    pub pattern: Pattern,
+}
+
+/// One view: a turntable step or a board pose.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct View {
+    /// Turntable angle (degrees, counter-clockwise seen from above).
+    pub angle_deg: f64,
+    /// The frames in capture order.
+    pub frames: Vec<Frame>,
+    /// True once every frame is written.
+    pub complete: bool,
+}
+
+/// The scan manifest (see the module doc for the file).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// Layout version.
+    pub format: u32,
+    /// Capture method.
+    pub method: Method,
+    /// Rig file, relative to the folder.
+    pub rig: String,
+    /// Who wrote the scan.
+    pub source: String,
+    /// Noise seed of a simulated scan.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
+    /// The views.
+    pub views: Vec<View>,
+}
+
+impl Manifest {
+    /// Parses manifest JSON.
+    pub fn from_json(bytes: &[u8]) -> Result<Manifest, ParseError> {
+        let m: Manifest = serde_json::from_slice(bytes)
+            .map_err(|e| ParseError::new(Location::Line(e.line()), Problem::Syntax(e.to_string())))?;
+        if m.format != SCAN_FORMAT {
+            let msg = format!("scan format {} is not supported (this scanrig reads {SCAN_FORMAT})", m.format);
+            return Err(ParseError::new(Location::Field("format".into()), Problem::Invalid(msg)));
+        }
+        for (i, v) in m.views.iter().enumerate() {
+            for f in &v.frames {
+                let p = Path::new(&f.file);
+                if p.is_absolute() || p.components().any(|c| matches!(c, std::path::Component::ParentDir)) {
+                    let msg = format!("frame file `{}` must be a relative path inside the scan folder", f.file);
+                    return Err(ParseError::new(Location::Field(format!("views[{i}].frames")), Problem::Invalid(msg)));
+                }
+            }
+        }
+        Ok(m)
+    }
+
+    /// Reads `scan.json` from a scan folder.
+    pub fn read(dir: &Path) -> Result<Manifest, Error> {
+        let path = dir.join(MANIFEST_NAME);
+        Manifest::from_json(&read_bytes(&path)?).map_err(|e| e.with_path(&path))
+    }
+
+    /// Writes `scan.json` atomically (a crash leaves the previous manifest, never half of one).
+    pub fn write(&self, dir: &Path) -> Result<(), Error> {
+        let json = serde_json::to_vec_pretty(self).expect("a manifest always serialises");
+        write_atomic(&dir.join(MANIFEST_NAME), &json)
+    }
+
+    /// The first view not yet complete: where an interrupted scan resumes.
+    pub fn first_incomplete(&self) -> Option<usize> {
+        self.views.iter().position(|v| !v.complete)
+    }
+
+    /// The absolute path of a frame.
+    pub fn frame_path(dir: &Path, frame: &Frame) -> PathBuf {
+        dir.join(&frame.file)
+    }
+}
