@@ -18,6 +18,8 @@ pub enum Command {
     Info(InfoArgs),
     /// Convert a mesh or point cloud between PLY (binary or ASCII) and OBJ.
     Convert(ConvertArgs),
+    /// Simulate a scan on a virtual rig: structured-light or laser frames of a mesh on a turntable, with truth.
+    Sim(SimArgs),
 }
 
 #[derive(clap::Args, Debug)]
@@ -41,4 +43,70 @@ pub struct ConvertArgs {
     /// Write coordinates as `double` instead of `float` (PLY).
     #[arg(long)]
     pub double: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct SimArgs {
+    /// Simulator config: a TOML file, or the built-in `structured-light` or `laser` rig.
+    #[arg(long, default_value = "structured-light")]
+    pub config: String,
+    /// The object: a PLY, OBJ or OFF mesh (default: the built-in fluted vase).
+    #[arg(long)]
+    pub mesh: Option<PathBuf>,
+    /// Largest extent of the object on the platter, mm (default: the config's object_size_mm).
+    #[arg(long)]
+    pub size: Option<f64>,
+    /// Move the object on the platter by X,Y,Z mm (object frame: z up the turntable axis).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub offset: Option<[f64; 3]>,
+    /// Which axis of the mesh file points up.
+    #[arg(long, value_enum, default_value = "y")]
+    pub up: Up,
+    /// Capture program (default: structured light when the rig has a projector, else laser).
+    #[arg(long, value_enum)]
+    pub method: Option<SimMethod>,
+    /// Turntable views over a full turn (default: the config's).
+    #[arg(long)]
+    pub views: Option<u32>,
+    /// Camera resolution WxH, intrinsics scaled from the config's camera (e.g. 640x480).
+    #[arg(long, value_parser = parse_size)]
+    pub resolution: Option<(u32, u32)>,
+    /// Noise seed: the same seed gives byte-identical frames.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output scan folder; a half-finished scan of the same settings there is resumed.
+    #[arg(long, short, default_value = "scan-sim")]
+    pub out: PathBuf,
+    /// A noiseless sensor (no shot or read noise), for reference captures.
+    #[arg(long)]
+    pub noiseless: bool,
+    /// Skip writing the ground truth (truth/).
+    #[arg(long)]
+    pub no_truth: bool,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Up {
+    Y,
+    Z,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SimMethod {
+    StructuredLight,
+    Laser,
+}
+
+fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
+    let v: Vec<f64> = s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
+    <[f64; 3]>::try_from(v).map_err(|v| format!("expected X,Y,Z, got {} values", v.len()))
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, got `{s}`"))?;
+    let parse = |t: &str| t.trim().parse::<u32>().ok().filter(|&v| v > 0).ok_or_else(|| format!("`{t}` is not a positive size"));
+    Ok((parse(w)?, parse(h)?))
 }

@@ -4,6 +4,7 @@
 mod cli;
 mod convert;
 mod info;
+mod sim_cmd;
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -13,6 +14,7 @@ fn main() -> ExitCode {
     let result = match args.command {
         cli::Command::Info(a) => info::run(&a),
         cli::Command::Convert(a) => convert::run(&a),
+        cli::Command::Sim(a) => sim_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

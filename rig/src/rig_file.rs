@@ -168,11 +168,24 @@ impl Rig {
             let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1).unwrap_or(1);
             ParseError::new(Location::Line(line), Problem::Syntax(e.message().trim().to_string()))
         })?;
+        Rig::from_parsed(t)
+    }
+
+    /// Parses a rig from a TOML table embedded in another file (a simulator config's `[rig]`); errors
+    /// name the fields under `prefix`.
+    pub fn from_toml_table(table: toml::Table, prefix: &str) -> Result<Rig, ParseError> {
+        use serde::Deserialize;
+        let t = RigToml::deserialize(toml::Value::Table(table))
+            .map_err(|e| ParseError::new(Location::Field(prefix.into()), Problem::Syntax(e.message().trim().to_string())))?;
+        Rig::from_parsed(t).map_err(|e| match e.at {
+            Location::Field(f) => ParseError::new(Location::Field(format!("{prefix}.{f}")), e.problem),
+            at => ParseError::new(at, e.problem),
+        })
+    }
+
+    fn from_parsed(t: RigToml) -> Result<Rig, ParseError> {
         if t.format != RIG_FORMAT {
-            return Err(invalid(
-                "format",
-                format!("rig format {} is not supported (this scanrig reads {RIG_FORMAT})", t.format),
-            ));
+            return Err(invalid("format", format!("rig format {} is not supported (this scanrig reads {RIG_FORMAT})", t.format)));
         }
         let camera = lens_from(&t.camera, "camera")?;
         let projector = t

@@ -1,0 +1,223 @@
+//! The simulator's configuration: a rig (the exact truth the scan is taken with) and the physics a rig
+//! file does not hold — sensor noise and exposure, projector gamma and defocus, laser emitters, ambient
+//! light, the platter and the scan program. Read from TOML (`configs/sim-*.toml`):
+//!
+//! ```toml
+//! format = 1
+//! [rig]            # exactly a rig.toml's content, under `rig.`
+//! [sensor]         # exposure, gain, full_well_e (0 = noiseless), read_noise_e, ambient
+//! [projector]      # power, gamma, black_level, defocus_px
+//! [[lasers]]       # one emitter per rig laser: origin_mm (on its plane), line_width_mm (FWHM), power
+//! [scene]          # platter_radius_mm, platter_albedo, object_albedo, object_size_mm
+//! [scan]           # views, phase = [{ axis = "columns", period_px = 16.0, steps = 4 }, …]
+//! ```
+//! Every section but `[rig]` may be left out; the defaults are a clean, well-exposed desktop setup.
+
+use rig::error::{Error, Location, ParseError, Problem};
+use rig::math::{Point3, Real};
+use rig::{PhaseShift, Rig};
+use serde::Deserialize;
+use std::path::Path;
+
+/// The camera sensor and exposure.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SensorConfig {
+    /// Exposure scale: 1 puts a white, fully lit, facing surface at full scale.
+    pub exposure: Real,
+    /// Analogue gain applied after the photon count.
+    pub gain: Real,
+    /// Full-well capacity in electrons, setting shot noise; 0 makes a noiseless sensor (no shot or read
+    /// noise).
+    pub full_well_e: Real,
+    /// Read noise in electrons (standard deviation).
+    pub read_noise_e: Real,
+    /// Ambient light on a white surface, as a fraction of full scale.
+    pub ambient: Real,
+}
+
+impl Default for SensorConfig {
+    fn default() -> Self {
+        SensorConfig { exposure: 0.9, gain: 1.0, full_well_e: 10_000.0, read_noise_e: 5.0, ambient: 0.03 }
+    }
+}
+
+/// The projector's light: power, response curve, black level and focus.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ProjectorConfig {
+    /// Irradiance of a full-white pixel on a surface facing it, as a fraction of full scale.
+    pub power: Real,
+    /// Response exponent: light = black + (1 − black)·value^gamma.
+    pub gamma: Real,
+    /// Light of a black pixel, as a fraction of white.
+    pub black_level: Real,
+    /// Defocus blur, a Gaussian standard deviation in projector pixels (0 = sharp pixels).
+    pub defocus_px: Real,
+}
+
+impl Default for ProjectorConfig {
+    fn default() -> Self {
+        ProjectorConfig { power: 0.85, gamma: 2.2, black_level: 0.01, defocus_px: 0.5 }
+    }
+}
+
+/// One line laser's emitter.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LaserEmitter {
+    /// Where the light leaves the laser (camera frame, mm); must lie on the laser's plane.
+    pub origin_mm: [Real; 3],
+    /// Line thickness, full width at half maximum (mm).
+    #[serde(default = "default_line_width")]
+    pub line_width_mm: Real,
+    /// Peak irradiance on a surface facing the laser, as a fraction of full scale.
+    #[serde(default = "default_laser_power")]
+    pub power: Real,
+}
+
+fn default_line_width() -> Real {
+    0.8
+}
+fn default_laser_power() -> Real {
+    1.0
+}
+
+/// The platter and the object's looks.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SceneConfig {
+    /// Platter radius (mm); 0 for none.
+    pub platter_radius_mm: Real,
+    /// Platter albedo.
+    pub platter_albedo: Real,
+    /// Object albedo where the mesh has no colours.
+    pub object_albedo: Real,
+    /// Largest extent of the object after scaling (mm).
+    pub object_size_mm: Real,
+}
+
+impl Default for SceneConfig {
+    fn default() -> Self {
+        SceneConfig { platter_radius_mm: 100.0, platter_albedo: 0.3, object_albedo: 0.8, object_size_mm: 120.0 }
+    }
+}
+
+/// What to capture.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ScanConfig {
+    /// Turntable steps over a full turn.
+    pub views: u32,
+    /// Phase-shift sets after the Gray code (structured light only).
+    pub phase: Vec<PhaseShift>,
+}
+
+impl Default for ScanConfig {
+    fn default() -> Self {
+        let p = |axis| PhaseShift { axis, period_px: 16.0, steps: 4 };
+        ScanConfig { views: 36, phase: vec![p(rig::Axis::Columns), p(rig::Axis::Rows)] }
+    }
+}
+
+/// A whole simulator configuration.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimConfig {
+    /// The rig, exact.
+    pub rig: Rig,
+    /// Sensor and exposure.
+    pub sensor: SensorConfig,
+    /// Projector light.
+    pub projector: ProjectorConfig,
+    /// Laser emitters, one per `rig.lasers` entry.
+    pub lasers: Vec<LaserEmitter>,
+    /// Platter and object looks.
+    pub scene: SceneConfig,
+    /// The capture program.
+    pub scan: ScanConfig,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SimToml {
+    format: u32,
+    rig: toml::Table,
+    #[serde(default)]
+    sensor: SensorConfig,
+    #[serde(default)]
+    projector: ProjectorConfig,
+    #[serde(default)]
+    lasers: Vec<LaserEmitter>,
+    #[serde(default)]
+    scene: SceneConfig,
+    #[serde(default)]
+    scan: ScanConfig,
+}
+
+fn invalid(field: &str, msg: impl Into<String>) -> ParseError {
+    ParseError::new(Location::Field(field.into()), Problem::Invalid(msg.into()))
+}
+
+impl SimConfig {
+    /// Parses a configuration from TOML text.
+    pub fn from_toml_str(text: &str) -> Result<SimConfig, ParseError> {
+        let t: SimToml = toml::from_str(text).map_err(|e| {
+            let line = e.span().map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1).unwrap_or(1);
+            ParseError::new(Location::Line(line), Problem::Syntax(e.message().trim().to_string()))
+        })?;
+        if t.format != 1 {
+            return Err(invalid("format", format!("simulator config format {} is not supported (this reads 1)", t.format)));
+        }
+        let rig = Rig::from_toml_table(t.rig, "rig")?;
+        if t.lasers.len() != rig.lasers.len() {
+            let msg = format!("{} emitters for the rig's {} lasers: give one `[[lasers]]` per laser", t.lasers.len(), rig.lasers.len());
+            return Err(invalid("lasers", msg));
+        }
+        for (i, (e, l)) in t.lasers.iter().zip(&rig.lasers).enumerate() {
+            let off = l.plane.signed_distance(&Point3::from(e.origin_mm));
+            if off.abs() > 1e-3 {
+                return Err(invalid(&format!("lasers[{i}].origin_mm"), format!("lies {off:.4} mm off laser `{}`'s plane", l.name)));
+            }
+            if !(e.line_width_mm > 0.0 && e.power >= 0.0) {
+                return Err(invalid(&format!("lasers[{i}]"), "line_width_mm must be positive and power non-negative"));
+            }
+        }
+        let s = &t.sensor;
+        if !(s.exposure > 0.0 && s.gain > 0.0 && s.full_well_e >= 0.0 && s.read_noise_e >= 0.0 && s.ambient >= 0.0) {
+            return Err(invalid("sensor", "exposure and gain must be positive; noise and ambient non-negative"));
+        }
+        let p = &t.projector;
+        if !(p.power >= 0.0 && p.gamma > 0.0 && (0.0..1.0).contains(&p.black_level) && p.defocus_px >= 0.0) {
+            return Err(invalid("projector", "power ≥ 0, gamma > 0, 0 ≤ black_level < 1, defocus_px ≥ 0"));
+        }
+        if t.scan.views == 0 {
+            return Err(invalid("scan.views", "must be at least 1"));
+        }
+        for (i, ph) in t.scan.phase.iter().enumerate() {
+            if ph.steps < 3 || !(ph.period_px >= 2.0) {
+                return Err(invalid(&format!("scan.phase[{i}]"), "needs steps ≥ 3 and period_px ≥ 2"));
+            }
+        }
+        Ok(SimConfig { rig, sensor: t.sensor, projector: t.projector, lasers: t.lasers, scene: t.scene, scan: t.scan })
+    }
+
+    /// Reads a configuration file.
+    pub fn read(path: &Path) -> Result<SimConfig, Error> {
+        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        SimConfig::from_toml_str(&String::from_utf8_lossy(&bytes)).map_err(|e| e.with_path(path))
+    }
+
+    /// The same rig and physics with the camera resampled to `width × height` (intrinsics scaled, the
+    /// pixel-centre convention kept), e.g. the 640 × 480 variant of a 1280 × 1024 camera.
+    pub fn with_camera_resolution(mut self, width: u32, height: u32) -> SimConfig {
+        let c = &mut self.rig.camera;
+        let (sx, sy) = (width as Real / c.width as Real, height as Real / c.height as Real);
+        c.fx *= sx;
+        c.fy *= sy;
+        c.cx = (c.cx + 0.5) * sx - 0.5;
+        c.cy = (c.cy + 0.5) * sy - 0.5;
+        c.width = width;
+        c.height = height;
+        self
+    }
+}

@@ -1,0 +1,145 @@
+//! Per-view geometry: one camera ray per pixel cast into the posed scene, with what every frame of the
+//! view needs — the hit, its normal and albedo, where the projector lights it and whether the projector
+//! and each laser emitter can see it (shadow rays). Computed once per view; every frame reuses it.
+
+use crate::config::SimConfig;
+use crate::scene::{PosedScene, Scene};
+use rayon::prelude::*;
+use rig::math::{Isometry3, Point2, Point3, Real, Vector3};
+
+/// Shadow rays start this far (mm) from the surface so a surface does not shadow itself by rounding.
+const SHADOW_EPS: Real = 1e-4;
+
+/// The unit ray direction through every pixel (camera frame, row-major); NaN where the lens model has no
+/// ray. Depends only on the camera: compute once per scan.
+pub fn pixel_rays(cam: &rig::PinholeCamera) -> Vec<Vector3> {
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let px = Point2::new((i % w) as Real, (i / w) as Real);
+            cam.unproject(px).map(|d| d.into_inner()).unwrap_or_else(|| Vector3::repeat(Real::NAN))
+        })
+        .collect()
+}
+
+/// What one view's camera sees, per pixel (row-major, `width · height` entries each).
+#[derive(Debug, Clone)]
+pub struct ViewGeometry {
+    /// Image width.
+    pub width: usize,
+    /// Image height.
+    pub height: usize,
+    /// The part hit ([`crate::scene::PartKind`] as a byte), 0 for nothing.
+    pub kind: Vec<u8>,
+    /// The hit in the camera frame (mm); NaN where nothing is hit.
+    pub point: Vec<Point3>,
+    /// Unit normal facing the camera (camera frame).
+    pub normal: Vec<Vector3>,
+    /// Albedo at the hit.
+    pub albedo: Vec<f32>,
+    /// Projector pixel coordinates of the hit where the projector lights it; NaN otherwise.
+    pub projector: Vec<Point2>,
+    /// cos(angle between normal and the direction to the projector) where lit, else 0.
+    pub projector_cos: Vec<f32>,
+    /// Per laser: signed distance of the hit from the laser plane (mm).
+    pub laser_distance: Vec<Vec<f32>>,
+    /// Per laser: cos(angle to the emitter) where the emitter sees the hit, else 0.
+    pub laser_cos: Vec<Vec<f32>>,
+}
+
+/// Casts every pixel's ray for the view `camera_from_object`.
+pub fn view_geometry(scene: &Scene, cfg: &SimConfig, rays: &[Vector3], camera_from_object: &Isometry3) -> ViewGeometry {
+    let cam = &cfg.rig.camera;
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let posed = scene.view(camera_from_object);
+    let nl = cfg.rig.lasers.len();
+    let per_pixel: Vec<Pixel> = rays.par_iter().map(|dir| shade_geometry(&posed, cfg, dir)).collect();
+    let mut g = ViewGeometry {
+        width: w,
+        height: h,
+        kind: Vec::with_capacity(w * h),
+        point: Vec::with_capacity(w * h),
+        normal: Vec::with_capacity(w * h),
+        albedo: Vec::with_capacity(w * h),
+        projector: Vec::with_capacity(w * h),
+        projector_cos: Vec::with_capacity(w * h),
+        laser_distance: vec![Vec::with_capacity(w * h); nl],
+        laser_cos: vec![Vec::with_capacity(w * h); nl],
+    };
+    for p in per_pixel {
+        g.kind.push(p.kind);
+        g.point.push(p.point);
+        g.normal.push(p.normal);
+        g.albedo.push(p.albedo);
+        g.projector.push(p.projector);
+        g.projector_cos.push(p.projector_cos);
+        for k in 0..nl {
+            g.laser_distance[k].push(p.laser_distance[k]);
+            g.laser_cos[k].push(p.laser_cos[k]);
+        }
+    }
+    g
+}
+
+struct Pixel {
+    kind: u8,
+    point: Point3,
+    normal: Vector3,
+    albedo: f32,
+    projector: Point2,
+    projector_cos: f32,
+    laser_distance: Vec<f32>,
+    laser_cos: Vec<f32>,
+}
+
+/// Whether a light at `source` reaches `p` (normal `n`), and the cosine it arrives at.
+fn lit_cos(scene: &PosedScene<'_>, p: &Point3, n: &Vector3, source: &Point3) -> f32 {
+    let to = source - p;
+    let dist = to.norm();
+    let dir = to / dist;
+    let cos = n.dot(&dir);
+    if cos <= 0.0 || scene.occluded(p, &dir, SHADOW_EPS, dist - SHADOW_EPS) { 0.0 } else { cos as f32 }
+}
+
+fn shade_geometry(scene: &PosedScene<'_>, cfg: &SimConfig, dir: &Vector3) -> Pixel {
+    let nl = cfg.rig.lasers.len();
+    let nan = Real::NAN;
+    let mut px = Pixel {
+        kind: 0,
+        point: Point3::new(nan, nan, nan),
+        normal: Vector3::zeros(),
+        albedo: 0.0,
+        projector: Point2::new(nan, nan),
+        projector_cos: 0.0,
+        laser_distance: vec![f32::NAN; nl],
+        laser_cos: vec![0.0; nl],
+    };
+    if !dir.x.is_finite() {
+        return px;
+    }
+    let Some(hit) = scene.cast(&Point3::origin(), dir, 0.0, Real::INFINITY) else { return px };
+    let p = Point3::from(dir * hit.t);
+    px.kind = hit.kind as u8;
+    px.point = p;
+    px.normal = hit.normal;
+    px.albedo = hit.albedo as f32;
+    if let Some(proj) = &cfg.rig.projector
+        && let Some(uv) = proj.project(&p).filter(|uv| proj.lens.contains(*uv))
+    {
+        let cos = lit_cos(scene, &p, &hit.normal, &proj.center_in_camera());
+        if cos > 0.0 {
+            px.projector = uv;
+            px.projector_cos = cos;
+        }
+    }
+    for (k, (laser, emitter)) in cfg.rig.lasers.iter().zip(&cfg.lasers).enumerate() {
+        let d = laser.plane.signed_distance(&p);
+        px.laser_distance[k] = d as f32;
+        // Only points near the plane can be lit: skip the shadow ray elsewhere.
+        if d.abs() < 4.0 * emitter.line_width_mm {
+            px.laser_cos[k] = lit_cos(scene, &p, &hit.normal, &Point3::from(emitter.origin_mm));
+        }
+    }
+    px
+}

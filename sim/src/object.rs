@@ -1,0 +1,115 @@
+//! The scanned object: a mesh from a file placed on the platter, or the built-in fluted vase.
+
+use rig::math::{Point3, Real, Vector3};
+use rig::{PolyMesh, TriMesh};
+
+/// Which axis of a mesh file points up (most OBJ/PLY models are y-up).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum UpAxis {
+    /// +y is up (the default: Stanford, libigl and most OBJ models).
+    #[default]
+    Y,
+    /// +z is up.
+    Z,
+}
+
+/// Scales a mesh so its largest extent is `size_mm`, turns its up axis to +z, and stands it on the
+/// platter: the bottom of its bounding box at z = 0, its box centred on the axis, then moved by `offset`.
+pub fn place_on_platter(mesh: &PolyMesh, size_mm: Real, up: UpAxis, offset: Vector3) -> TriMesh {
+    let mut tri = mesh.triangulate();
+    if up == UpAxis::Y {
+        // (x, y, z) → (x, −z, y): y becomes z, keeping a right-handed frame.
+        for v in &mut tri.vertices {
+            *v = Point3::new(v.x, -v.z, v.y);
+        }
+    }
+    let Some(b) = tri.bounding_box() else { return tri };
+    let extent = (b.max - b.min).max();
+    let scale = if extent > 0.0 { size_mm / extent } else { 1.0 };
+    let centre = Vector3::new((b.min.x + b.max.x) / 2.0, (b.min.y + b.max.y) / 2.0, b.min.z);
+    for v in &mut tri.vertices {
+        *v = Point3::from((v.coords - centre) * scale + offset);
+    }
+    tri.normals = None;
+    tri
+}
+
+/// The built-in object: a fluted vase `height_mm` tall, standing on the platter centre (object frame).
+///
+/// Five concave flutes, a waist and a lip give self-occlusion and shadows from every side, so a scan
+/// of it exercises what real objects do, without any file.
+pub fn fluted_vase(height_mm: Real) -> TriMesh {
+    fluted_vase_tessellated(height_mm, 120, 180)
+}
+
+/// The fluted vase with `rings × segments` vertices on its side (≈ 2·rings·segments triangles), for
+/// benchmarks that need a given triangle count.
+pub fn fluted_vase_tessellated(height_mm: Real, rings: usize, segments: usize) -> TriMesh {
+    let radius = |s: Real, phi: Real| {
+        // Profile: a bulb, a waist at 70 %, a flared lip; flutes fade toward the base and lip.
+        let profile = 0.32 + 0.10 * (std::f64::consts::PI * s * 1.4).sin() - 0.07 * (-((s - 0.7) / 0.08).powi(2)).exp()
+            + 0.05 * s.powi(6);
+        let flute = 0.07 * (5.0 * phi).cos() * (std::f64::consts::PI * s).sin();
+        height_mm * profile * (1.0 + flute)
+    };
+    let mut vertices = Vec::with_capacity(rings * segments + 2);
+    for i in 0..rings {
+        let s = i as Real / (rings - 1) as Real;
+        for j in 0..segments {
+            let phi = std::f64::consts::TAU * j as Real / segments as Real;
+            let r = radius(s, phi);
+            vertices.push(Point3::new(r * phi.cos(), r * phi.sin(), s * height_mm));
+        }
+    }
+    let (bottom, top) = (vertices.len() as u32, vertices.len() as u32 + 1);
+    vertices.push(Point3::new(0.0, 0.0, 0.0));
+    vertices.push(Point3::new(0.0, 0.0, height_mm));
+    let idx = |i: usize, j: usize| (i * segments + j % segments) as u32;
+    let mut faces = Vec::with_capacity(2 * rings * segments);
+    for i in 0..rings - 1 {
+        for j in 0..segments {
+            // Counter-clockwise seen from outside: outward normals.
+            faces.push([idx(i, j), idx(i, j + 1), idx(i + 1, j + 1)]);
+            faces.push([idx(i, j), idx(i + 1, j + 1), idx(i + 1, j)]);
+        }
+    }
+    for j in 0..segments {
+        faces.push([bottom, idx(0, j + 1), idx(0, j)]);
+        faces.push([top, idx(rings - 1, j), idx(rings - 1, j + 1)]);
+    }
+    TriMesh { vertices, faces, normals: None }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vase_is_closed_with_outward_normals() {
+        let m = fluted_vase(120.0);
+        // Signed volume by the divergence theorem is positive for outward-facing triangles.
+        let vol: Real = m
+            .faces
+            .iter()
+            .map(|f| {
+                let [a, b, c] = f.map(|i| m.vertices[i as usize].coords);
+                a.dot(&b.cross(&c)) / 6.0
+            })
+            .sum();
+        assert!(vol > 0.0);
+        // V − E + F = 2 for a closed sphere-like surface: E = 3F/2.
+        assert_eq!(m.vertices.len() as i64 - (3 * m.faces.len() / 2) as i64 + m.faces.len() as i64, 2);
+    }
+
+    #[test]
+    fn placement_stands_the_mesh_on_the_platter() {
+        let cube = PolyMesh::from_faces(
+            (0..8).map(|i| Point3::new((i & 1) as f64, ((i >> 1) & 1) as f64 + 5.0, ((i >> 2) & 1) as f64)).collect(),
+            [[0u32, 1, 3, 2]],
+        );
+        let m = place_on_platter(&cube, 50.0, UpAxis::Y, Vector3::new(0.0, 0.0, 2.0));
+        let b = m.bounding_box().unwrap();
+        assert!((b.min.z - 2.0).abs() < 1e-12 && ((b.max - b.min).max() - 50.0).abs() < 1e-12);
+        assert!((b.min.x + b.max.x).abs() < 1e-12 && (b.min.y + b.max.y).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,175 @@
+//! Running a capture program on the virtual rig and writing a scan folder, exactly as a real session
+//! does (`rig::scan_folder`), plus the simulator's `truth/`.
+
+use crate::config::SimConfig;
+use crate::geometry::{ViewGeometry, pixel_rays, view_geometry};
+use crate::light::PatternLight;
+use crate::render::{frame_key, render_frame};
+use crate::scene::Scene;
+use crate::{Error, truth};
+use rayon::prelude::*;
+use rig::math::{Isometry3, Real};
+use rig::scan_folder::{Frame, Manifest, Method, SCAN_FORMAT, View};
+use rig::{Pattern, TriMesh};
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+/// What a simulated scan did, for the JSON report.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct ScanReport {
+    /// Views in the scan.
+    pub views: usize,
+    /// Views rendered by this run (fewer than `views` when resuming).
+    pub views_rendered: usize,
+    /// Frames written by this run.
+    pub frames_written: usize,
+    /// Seconds spent casting rays (per-view geometry).
+    pub geometry_seconds: Real,
+    /// Seconds spent forming, encoding and writing frames.
+    pub frame_seconds: Real,
+    /// Seconds in all.
+    pub total_seconds: Real,
+    /// Frames written per second, everything included.
+    pub frames_per_second: Real,
+}
+
+/// The frames of one view of `method` on this rig.
+pub fn program(cfg: &SimConfig, method: Method) -> Result<Vec<Pattern>, Error> {
+    let mut seq = Vec::new();
+    if matches!(method, Method::StructuredLight | Method::Board) {
+        match &cfg.rig.projector {
+            Some(p) => seq.extend(rig::patterns::structured_light_sequence(p.lens.width, p.lens.height, &cfg.scan.phase)),
+            None if method == Method::StructuredLight => {
+                return Err(Error::Setup("a structured-light scan needs a rig with a [projector]".into()));
+            }
+            None => seq.push(Pattern::White),
+        }
+    }
+    if matches!(method, Method::Laser | Method::Board) && !cfg.rig.lasers.is_empty() {
+        seq.extend(rig::patterns::laser_sequence(cfg.rig.lasers.len()));
+    } else if method == Method::Laser {
+        return Err(Error::Setup("a laser scan needs a rig with [[lasers]]".into()));
+    }
+    Ok(seq)
+}
+
+/// The camera pose of each view: the turntable's, or the identity for a rig without one.
+pub fn view_pose(cfg: &SimConfig, angle_deg: Real) -> Isometry3 {
+    cfg.rig.turntable.map(|t| t.camera_from_object(angle_deg)).unwrap_or_else(Isometry3::identity)
+}
+
+/// Renders every frame of one view from its geometry: `(pattern, image)` in program order.
+pub fn render_view(
+    g: &ViewGeometry,
+    cfg: &SimConfig,
+    lights: &[PatternLight],
+    seed: u64,
+    view: usize,
+) -> Vec<rig::image::Image8> {
+    lights.par_iter().enumerate().map(|(f, light)| render_frame(g, cfg, light, frame_key(seed, view, f))).collect()
+}
+
+/// Options of a simulated scan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ScanOptions {
+    /// The capture program.
+    pub method: Method,
+    /// The noise seed.
+    pub seed: u64,
+    /// Whether to write `truth/`.
+    pub truth: bool,
+}
+
+/// Simulates a turntable scan into `out`: frames, manifest (rewritten atomically after every view), the
+/// rig, and truth. A folder holding the same scan half done is resumed at its first incomplete view.
+/// `progress(done, total)` is called after every view.
+pub fn simulate_scan(
+    cfg: &SimConfig,
+    scene: &Scene,
+    object: Option<&TriMesh>,
+    opts: ScanOptions,
+    out: &Path,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<ScanReport, Error> {
+    let start = Instant::now();
+    let patterns = program(cfg, opts.method)?;
+    let views = cfg.scan.views as usize;
+    let step = 360.0 / views as Real;
+    let mkdir = |p: &Path| std::fs::create_dir_all(p).map_err(|e| Error::File(rig::Error::io(p, e)));
+    mkdir(out)?;
+    let fresh = Manifest {
+        format: SCAN_FORMAT,
+        method: opts.method,
+        rig: "rig.toml".into(),
+        source: "simulator".into(),
+        seed: Some(opts.seed),
+        views: (0..views)
+            .map(|v| View {
+                angle_deg: v as Real * step,
+                frames: patterns
+                    .iter()
+                    .enumerate()
+                    .map(|(f, p)| Frame { file: format!("frames/view_{v:03}/{f:02}_{}.png", p.name()), pattern: *p })
+                    .collect(),
+                complete: false,
+            })
+            .collect(),
+    };
+    let mut manifest = match Manifest::read(out) {
+        Ok(old) if old.views.len() == views && old.seed == fresh.seed && old.method == fresh.method => old,
+        Ok(_) => {
+            return Err(Error::Setup(format!(
+                "{} already holds a different scan; choose another output folder or remove it",
+                out.display()
+            )));
+        }
+        Err(_) => {
+            cfg.rig.write(&out.join("rig.toml"))?;
+            if let (Some(m), true) = (object, opts.truth) {
+                mkdir(&out.join("truth"))?;
+                rig::ply::write_mesh(&out.join("truth/object.ply"), &m.to_poly(), &rig::ply::WriteOptions::default().with_units("mm"))?;
+            }
+            fresh.write(out)?;
+            fresh
+        }
+    };
+    let lights: Vec<PatternLight> = cfg
+        .rig
+        .projector
+        .as_ref()
+        .map(|p| patterns.iter().map(|&pat| PatternLight::new(pat, &p.lens, &cfg.projector)).collect())
+        .unwrap_or_else(|| patterns.iter().map(|&pat| PatternLight::new(pat, &cfg.rig.camera, &cfg.projector)).collect());
+    let rays = pixel_rays(&cfg.rig.camera);
+    let mut report = ScanReport { views, ..Default::default() };
+    for v in manifest.first_incomplete().unwrap_or(views)..views {
+        if manifest.views[v].complete {
+            continue;
+        }
+        let t0 = Instant::now();
+        let pose = view_pose(cfg, manifest.views[v].angle_deg);
+        let g = view_geometry(scene, cfg, &rays, &pose);
+        let t1 = Instant::now();
+        mkdir(&out.join(format!("frames/view_{v:03}")))?;
+        let frames = manifest.views[v].frames.clone();
+        lights.par_iter().zip(&frames).enumerate().try_for_each(|(f, (light, frame))| -> Result<(), Error> {
+            let img = render_frame(&g, cfg, light, frame_key(opts.seed, v, f));
+            // Frames are plain writes: the view only counts once the manifest says it is complete.
+            let path = out.join(&frame.file);
+            std::fs::write(&path, rig::image::png_bytes(&img, true)).map_err(|e| Error::File(rig::Error::io(&path, e)))
+        })?;
+        if opts.truth {
+            truth::write_view(&out.join(format!("truth/view_{v:03}")), &g, &pose, cfg.rig.camera.fx)?;
+        }
+        manifest.views[v].complete = true;
+        manifest.write(out)?;
+        report.geometry_seconds += (t1 - t0).as_secs_f64();
+        report.frame_seconds += t1.elapsed().as_secs_f64();
+        report.views_rendered += 1;
+        report.frames_written += frames.len();
+        progress(v + 1, views);
+    }
+    report.total_seconds = start.elapsed().as_secs_f64();
+    report.frames_per_second = report.frames_written as Real / report.total_seconds.max(1e-9);
+    Ok(report)
+}

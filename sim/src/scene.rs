@@ -1,0 +1,187 @@
+//! The scene: parts (object, platter, boards, occluders), each a [`Surface`] with a pose, a mount and an
+//! albedo, and the per-view posing that puts them all in the camera frame.
+//!
+//! # Conventions
+//! A part on the [`Mount::Turntable`] is posed in the object frame (origin on the platter centre, z up
+//! the axis) and turns with the platter; a [`Mount::Fixed`] part is posed in the camera frame.
+
+use crate::surface::Surface;
+use rig::math::{Isometry3, Point3, Real, Vector3};
+
+/// Where a part is attached.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Mount {
+    /// On the platter: posed in the object frame, turns with the view angle.
+    Turntable,
+    /// Fixed in the camera frame.
+    Fixed,
+}
+
+/// What a part is, as written into the truth maps (`part.npy`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum PartKind {
+    /// The scanned object.
+    Object = 1,
+    /// The turntable's platter.
+    Platter = 2,
+    /// A calibration chessboard.
+    Board = 3,
+    /// Anything else (test occluders, a background).
+    Other = 4,
+}
+
+/// How bright a part is (diffuse reflectance in [0, 1]).
+#[derive(Debug, Clone, PartialEq)]
+pub enum Albedo {
+    /// The same everywhere.
+    Constant(Real),
+    /// Per mesh vertex, interpolated with the hit's barycentrics; `faces` are the mesh's triangles.
+    PerVertex {
+        /// The mesh's triangles.
+        faces: Vec<[u32; 3]>,
+        /// One albedo per vertex.
+        values: Vec<Real>,
+    },
+    /// A chessboard on a plane part: squares of `square_mm` with the first inner corner at local
+    /// `origin`, `cols × rows` inner corners, a light margin of one square around the squares.
+    Checker {
+        /// Square size (mm).
+        square_mm: Real,
+        /// Inner corners along x.
+        cols: u32,
+        /// Inner corners along y.
+        rows: u32,
+        /// Local coordinates of the first inner corner.
+        origin: (Real, Real),
+        /// Albedo of dark squares.
+        dark: Real,
+        /// Albedo of light squares and the margin.
+        light: Real,
+    },
+}
+
+impl Albedo {
+    fn at(&self, uv: (u32, Real, Real)) -> Real {
+        match self {
+            Albedo::Constant(a) => *a,
+            Albedo::PerVertex { faces, values } => {
+                let f = faces[uv.0 as usize];
+                let (u, v) = (uv.1, uv.2);
+                (1.0 - u - v) * values[f[0] as usize] + u * values[f[1] as usize] + v * values[f[2] as usize]
+            }
+            Albedo::Checker { square_mm, cols, rows, origin, dark, light } => {
+                let (x, y) = ((uv.1 - origin.0) / square_mm, (uv.2 - origin.1) / square_mm);
+                // Squares span x ∈ [−1, cols] and y ∈ [−1, rows] in square units; the rest is margin.
+                let inside = x >= -1.0 && y >= -1.0 && x < *cols as Real && y < *rows as Real;
+                let (i, j) = ((x + 1.0).floor() as i64, (y + 1.0).floor() as i64);
+                if inside && (i + j) % 2 == 0 { *dark } else { *light }
+            }
+        }
+    }
+}
+
+/// One thing in the scene.
+pub struct Part {
+    /// What it is (for truth maps).
+    pub kind: PartKind,
+    /// Its shape in its local frame.
+    pub surface: Box<dyn Surface>,
+    /// Local frame → mount frame.
+    pub pose: Isometry3,
+    /// What it is attached to.
+    pub mount: Mount,
+    /// Its reflectance.
+    pub albedo: Albedo,
+}
+
+/// All parts of a scene.
+#[derive(Default)]
+pub struct Scene {
+    /// The parts.
+    pub parts: Vec<Part>,
+}
+
+/// A hit in the camera frame of one view.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SceneHit {
+    /// Distance along the ray.
+    pub t: Real,
+    /// Unit geometric normal in the camera frame, turned to face the ray's origin.
+    pub normal: Vector3,
+    /// Albedo at the hit.
+    pub albedo: Real,
+    /// Which part.
+    pub kind: PartKind,
+}
+
+/// The scene for one view: every part's pose in that view's camera frame.
+pub struct PosedScene<'a> {
+    scene: &'a Scene,
+    poses: Vec<Isometry3>,
+}
+
+impl Scene {
+    /// Poses every part for the view whose object frame maps to the camera by `camera_from_object`.
+    pub fn view(&self, camera_from_object: &Isometry3) -> PosedScene<'_> {
+        let poses = self
+            .parts
+            .iter()
+            .map(|p| match p.mount {
+                Mount::Turntable => camera_from_object * p.pose,
+                Mount::Fixed => p.pose,
+            })
+            .collect();
+        PosedScene { scene: self, poses }
+    }
+}
+
+impl PosedScene<'_> {
+    /// The nearest hit with `t ∈ (t_min, t_max)` of a camera-frame ray.
+    pub fn cast(&self, origin: &Point3, dir: &Vector3, t_min: Real, t_max: Real) -> Option<SceneHit> {
+        let mut best: Option<(usize, crate::surface::LocalHit)> = None;
+        let mut limit = t_max;
+        for (i, (part, pose)) in self.scene.parts.iter().zip(&self.poses).enumerate() {
+            if let Some(h) = part.surface.cast(pose, origin, dir, t_min, limit) {
+                limit = h.t;
+                best = Some((i, h));
+            }
+        }
+        let (i, h) = best?;
+        let part = &self.scene.parts[i];
+        let normal = if h.normal.dot(dir) > 0.0 { -h.normal } else { h.normal };
+        Some(SceneHit { t: h.t, normal, albedo: part.albedo.at(h.uv), kind: part.kind })
+    }
+
+    /// Whether a camera-frame ray hits anything with `t ∈ (t_min, t_max)` (shadow rays).
+    pub fn occluded(&self, origin: &Point3, dir: &Vector3, t_min: Real, t_max: Real) -> bool {
+        self.scene.parts.iter().zip(&self.poses).any(|(part, pose)| {
+            let inv = pose.inverse();
+            part.surface.occluded_local(&(inv * origin), &(inv * dir), t_min, t_max)
+        })
+    }
+}
+
+impl Scene {
+    /// The turntable scene: the platter (a disc at the object frame's z = 0) and the object on it.
+    pub fn on_turntable(cfg: &crate::SimConfig, object: &rig::TriMesh, albedo: Albedo) -> Scene {
+        let mut parts = Vec::new();
+        if cfg.scene.platter_radius_mm > 0.0 {
+            parts.push(Part {
+                kind: PartKind::Platter,
+                surface: Box::new(crate::surface::Disc { radius: cfg.scene.platter_radius_mm }),
+                pose: Isometry3::identity(),
+                mount: Mount::Turntable,
+                albedo: Albedo::Constant(cfg.scene.platter_albedo),
+            });
+        }
+        parts.push(Part {
+            kind: PartKind::Object,
+            surface: Box::new(crate::surface::MeshSurface::new(object)),
+            pose: Isometry3::identity(),
+            mount: Mount::Turntable,
+            albedo,
+        });
+        Scene { parts }
+    }
+}

@@ -1,0 +1,103 @@
+//! `scanrig sim`: a simulated scan into a scan folder.
+
+use crate::cli::{SimArgs, SimMethod, Up};
+use anyhow::{Context, Result, bail};
+use rig::Method;
+use sim::{Albedo, Scene, SimConfig, UpAxis};
+use std::io::Write;
+
+/// The built-in configs, so `scanrig sim` runs with no file.
+const STRUCTURED_LIGHT: &str = include_str!("../configs/sim-structured-light.toml");
+const LASER: &str = include_str!("../configs/sim-laser.toml");
+
+pub fn load_config(name: &str) -> Result<SimConfig> {
+    let builtin = match name {
+        "structured-light" => Some(STRUCTURED_LIGHT),
+        "laser" => Some(LASER),
+        _ => None,
+    };
+    Ok(match builtin {
+        Some(text) => SimConfig::from_toml_str(text).map_err(|e| anyhow::anyhow!("built-in config `{name}`: {e}"))?,
+        None => SimConfig::read(std::path::Path::new(name))?,
+    })
+}
+
+pub fn run(args: &SimArgs) -> Result<()> {
+    let mut cfg = load_config(&args.config)?;
+    if let Some((w, h)) = args.resolution {
+        cfg = cfg.with_camera_resolution(w, h);
+    }
+    if args.noiseless {
+        cfg.sensor.full_well_e = 0.0;
+    }
+    if let Some(v) = args.views {
+        if v == 0 {
+            bail!("--views must be at least 1");
+        }
+        cfg.scan.views = v;
+    }
+    let method = match args.method {
+        Some(SimMethod::StructuredLight) => Method::StructuredLight,
+        Some(SimMethod::Laser) => Method::Laser,
+        None if cfg.rig.projector.is_some() => Method::StructuredLight,
+        None => Method::Laser,
+    };
+    let size = args.size.unwrap_or(cfg.scene.object_size_mm);
+    let offset = rig::Vector3::from(args.offset.unwrap_or([0.0; 3]));
+    let (object, albedo) = match &args.mesh {
+        Some(path) => {
+            let mesh = rig::read_mesh(path)?;
+            let up = if args.up == Up::Z { UpAxis::Z } else { UpAxis::Y };
+            let placed = sim::place_on_platter(&mesh, size, up, offset);
+            // Vertex colours, where the file has them, become the albedo (luma).
+            let colors = if rig::MeshFormat::of(path) == Some(rig::MeshFormat::Ply) { rig::ply::read_cloud(path)?.colors } else { None };
+            let albedo = match colors {
+                Some(c) => Albedo::PerVertex {
+                    faces: placed.faces.clone(),
+                    values: c.iter().map(|p| (0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64) / 255.0).collect(),
+                },
+                None => Albedo::Constant(cfg.scene.object_albedo),
+            };
+            (placed, albedo)
+        }
+        None => {
+            let vase = sim::place_on_platter(&sim::fluted_vase(size).to_poly(), size, UpAxis::Z, offset);
+            (vase, Albedo::Constant(cfg.scene.object_albedo))
+        }
+    };
+    let scene = Scene::on_turntable(&cfg, &object, albedo);
+    let opts = sim::ScanOptions { method, seed: args.seed, truth: !args.no_truth };
+    eprintln!(
+        "simulating {} views of {} ({} triangles) at {}×{} into {}",
+        cfg.scan.views,
+        args.mesh.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "the built-in vase".into()),
+        object.faces.len(),
+        cfg.rig.camera.width,
+        cfg.rig.camera.height,
+        args.out.display()
+    );
+    let report = sim::simulate_scan(&cfg, &scene, Some(&object), opts, &args.out, |done, total| {
+        eprint!("\r  view {done}/{total}");
+        if done == total {
+            eprintln!();
+        }
+    })
+    .with_context(|| format!("simulating into {}", args.out.display()))?;
+    let mut out = std::io::stdout().lock();
+    if args.json {
+        serde_json::to_writer_pretty(&mut out, &report)?;
+        writeln!(out)?;
+    } else {
+        writeln!(
+            out,
+            "{}: {} views, {} frames written in {:.1} s ({:.0} frames/s; ray casting {:.1} s)",
+            args.out.display(),
+            report.views,
+            report.frames_written,
+            report.total_seconds,
+            report.frames_per_second,
+            report.geometry_seconds
+        )?;
+    }
+    Ok(())
+}
