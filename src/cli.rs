@@ -12,6 +12,15 @@ pub struct Args {
     pub command: Command,
 }
 
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_grammar_is_consistent() {
+        use clap::CommandFactory;
+        super::Args::command().debug_assert();
+    }
+}
+
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Describe a PLY, OBJ or OFF file, a rig (.toml) or an OpenCV camera (.yml): counts, properties, bounds.
@@ -77,6 +86,18 @@ pub struct SimArgs {
     /// Output scan folder; a half-finished scan of the same settings there is resumed.
     #[arg(long, short, default_value = "scan-sim")]
     pub out: PathBuf,
+    /// Calibration captures of a chessboard with COLSxROWS inner corners instead of a scan.
+    #[arg(long, value_parser = parse_size)]
+    pub board: Option<(u32, u32)>,
+    /// The chessboard's square size, mm.
+    #[arg(long, default_value_t = 15.0)]
+    pub square: f64,
+    /// Board poses in front of the camera (with --board).
+    #[arg(long, default_value_t = 15)]
+    pub poses: usize,
+    /// Stand the board on the turntable and sweep it START:END:STEP degrees instead (with --board).
+    #[arg(long, value_parser = parse_sweep, allow_hyphen_values = true)]
+    pub sweep: Option<Sweep>,
     /// A noiseless sensor (no shot or read noise), for reference captures.
     #[arg(long)]
     pub noiseless: bool,
@@ -101,12 +122,30 @@ pub enum SimMethod {
 }
 
 fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
-    let v: Vec<f64> = s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
+    let v: Vec<f64> =
+        s.split(',').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
     <[f64; 3]>::try_from(v).map_err(|v| format!("expected X,Y,Z, got {} values", v.len()))
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, got `{s}`"))?;
-    let parse = |t: &str| t.trim().parse::<u32>().ok().filter(|&v| v > 0).ok_or_else(|| format!("`{t}` is not a positive size"));
+    let parse = |t: &str| {
+        t.trim().parse::<u32>().ok().filter(|&v| v > 0).ok_or_else(|| format!("`{t}` is not a positive size"))
+    };
     Ok((parse(w)?, parse(h)?))
+}
+
+/// Turntable angles of a board sweep, degrees.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sweep(pub Vec<f64>);
+
+fn parse_sweep(s: &str) -> Result<Sweep, String> {
+    let v: Vec<f64> =
+        s.split(':').map(|t| t.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|e| e.to_string())?;
+    let [a, b, step] = v[..] else { return Err(format!("expected START:END:STEP, got `{s}`")) };
+    if step.is_nan() || step <= 0.0 || b < a {
+        return Err("the sweep needs END ≥ START and a positive STEP".into());
+    }
+    let n = ((b - a) / step + 1e-9).floor() as usize + 1;
+    Ok(Sweep((0..n).map(|k| a + k as f64 * step).collect()))
 }

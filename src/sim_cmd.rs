@@ -42,6 +42,9 @@ pub fn run(args: &SimArgs) -> Result<()> {
         None if cfg.rig.projector.is_some() => Method::StructuredLight,
         None => Method::Laser,
     };
+    if let Some((cols, rows)) = args.board {
+        return run_board(args, &cfg, sim::Board { cols, rows, square_mm: args.square });
+    }
     let size = args.size.unwrap_or(cfg.scene.object_size_mm);
     let offset = rig::Vector3::from(args.offset.unwrap_or([0.0; 3]));
     let (object, albedo) = match &args.mesh {
@@ -50,11 +53,18 @@ pub fn run(args: &SimArgs) -> Result<()> {
             let up = if args.up == Up::Z { UpAxis::Z } else { UpAxis::Y };
             let placed = sim::place_on_platter(&mesh, size, up, offset);
             // Vertex colours, where the file has them, become the albedo (luma).
-            let colors = if rig::MeshFormat::of(path) == Some(rig::MeshFormat::Ply) { rig::ply::read_cloud(path)?.colors } else { None };
+            let colors = if rig::MeshFormat::of(path) == Some(rig::MeshFormat::Ply) {
+                rig::ply::read_cloud(path)?.colors
+            } else {
+                None
+            };
             let albedo = match colors {
                 Some(c) => Albedo::PerVertex {
                     faces: placed.faces.clone(),
-                    values: c.iter().map(|p| (0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64) / 255.0).collect(),
+                    values: c
+                        .iter()
+                        .map(|p| (0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64) / 255.0)
+                        .collect(),
                 },
                 None => Albedo::Constant(cfg.scene.object_albedo),
             };
@@ -83,9 +93,42 @@ pub fn run(args: &SimArgs) -> Result<()> {
         }
     })
     .with_context(|| format!("simulating into {}", args.out.display()))?;
+    print_report(args, &report)
+}
+
+fn run_board(args: &SimArgs, cfg: &SimConfig, board: sim::Board) -> Result<()> {
+    if board.cols < 2 || board.rows < 2 || args.square.is_nan() || args.square <= 0.0 {
+        bail!("--board needs at least 2x2 inner corners and a positive --square");
+    }
+    let poses = match &args.sweep {
+        Some(sweep) => sim::BoardPoses::Turntable(sweep.0.clone()),
+        None => {
+            let distance = cfg.rig.turntable.map(|t| t.point.coords.norm()).unwrap_or(400.0);
+            sim::BoardPoses::Fixed(sim::board::default_fixed_poses(&board, distance, args.poses.max(1)))
+        }
+    };
+    let opts = sim::ScanOptions { method: Method::Board, seed: args.seed, truth: !args.no_truth };
+    eprintln!(
+        "simulating calibration captures of a {}x{} board ({} mm squares) into {}",
+        board.cols,
+        board.rows,
+        board.square_mm,
+        args.out.display()
+    );
+    let report = sim::simulate_board(cfg, &board, &poses, opts, &args.out, |done, total| {
+        eprint!("\r  view {done}/{total}");
+        if done == total {
+            eprintln!();
+        }
+    })
+    .with_context(|| format!("simulating into {}", args.out.display()))?;
+    print_report(args, &report)
+}
+
+fn print_report(args: &SimArgs, report: &sim::ScanReport) -> Result<()> {
     let mut out = std::io::stdout().lock();
     if args.json {
-        serde_json::to_writer_pretty(&mut out, &report)?;
+        serde_json::to_writer_pretty(&mut out, report)?;
         writeln!(out)?;
     } else {
         writeln!(

@@ -40,7 +40,7 @@ fn help_lists_every_subcommand_with_one_line() {
     let o = scanrig(&[&"--help"]);
     assert!(o.status.success());
     let text = stdout(&o);
-    for cmd in ["info", "convert"] {
+    for cmd in ["info", "convert", "sim"] {
         let line =
             text.lines().find(|l| l.trim_start().starts_with(cmd)).unwrap_or_else(|| panic!("{cmd} not in\n{text}"));
         assert!(line.len() > cmd.len() + 10, "{cmd} has no description: {line}");
@@ -113,4 +113,68 @@ cx_px = 320.0\ncy_px = 240.0\n[[lasers]]\nname = \"left\"\nnormal = [0.866, 0.0,
     let o = scanrig(&[&"info", &yml]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("k1 -0.27"), "{}", stdout(&o));
+}
+
+#[test]
+fn sim_writes_a_scan_folder_and_resumes_it() {
+    let d = Dir::new();
+    let out = d.path("scan");
+    let args: [&dyn AsRef<std::ffi::OsStr>; 9] =
+        [&"sim", &"--views", &"2", &"--resolution", &"160x128", &"--out", &out, &"--json", &"--noiseless"];
+    let o = scanrig(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!((report["views"].as_u64(), report["views_rendered"].as_u64()), (Some(2), Some(2)));
+    let m = rig::Manifest::read(&out).unwrap();
+    assert_eq!(m.views.len(), 2);
+    assert!(m.views.iter().all(|v| v.complete && v.frames.len() == 50));
+    for f in &m.views[1].frames {
+        let img = rig::image::read_png(&out.join(&f.file)).unwrap();
+        assert_eq!((img.width, img.height), (160, 128));
+    }
+    assert!(out.join("truth/object.ply").is_file() && out.join("truth/view_001/depth.npy").is_file());
+    assert_eq!(rig::Rig::read(&out.join("rig.toml")).unwrap().camera.width, 160);
+    // The same command again finds every view complete and renders nothing.
+    let o = scanrig(&args);
+    let again: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(again["views_rendered"].as_u64(), Some(0));
+}
+
+#[test]
+fn sim_scans_a_mesh_file_with_the_laser_rig() {
+    let d = Dir::new();
+    let obj = d.write("m.obj", QUAD_OBJ);
+    let out = d.path("laser");
+    let o = scanrig(&[
+        &"sim",
+        &"--config",
+        &"laser",
+        &"--mesh",
+        &obj,
+        &"--up",
+        &"z",
+        &"--views",
+        &"1",
+        &"--resolution",
+        &"160x120",
+        &"--out",
+        &out,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m = rig::Manifest::read(&out).unwrap();
+    assert_eq!(m.method, rig::Method::Laser);
+    assert_eq!(m.views[0].frames.len(), 3, "laser off, then each of the two lasers");
+}
+
+#[test]
+fn sim_names_a_bad_config_and_its_field() {
+    let d = Dir::new();
+    let bad = d.write("bad.toml", b"format = 1\n[rig]\nformat = 1\n[rig.camera]\nwidth_px = 64\nheight_px = 48\nfx_px = 0.0\nfy_px = 60.0\ncx_px = 31.5\ncy_px = 23.5\n");
+    let o = scanrig(&[&"sim", &"--config", &bad, &"--out", &d.path("x")]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("bad.toml: field `rig.camera`: focal lengths (0, 60) must be positive"),
+        "{}",
+        stderr(&o)
+    );
 }

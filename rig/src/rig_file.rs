@@ -175,8 +175,9 @@ impl Rig {
     /// name the fields under `prefix`.
     pub fn from_toml_table(table: toml::Table, prefix: &str) -> Result<Rig, ParseError> {
         use serde::Deserialize;
-        let t = RigToml::deserialize(toml::Value::Table(table))
-            .map_err(|e| ParseError::new(Location::Field(prefix.into()), Problem::Syntax(e.message().trim().to_string())))?;
+        let t = RigToml::deserialize(toml::Value::Table(table)).map_err(|e| {
+            ParseError::new(Location::Field(prefix.into()), Problem::Syntax(e.message().trim().to_string()))
+        })?;
         Rig::from_parsed(t).map_err(|e| match e.at {
             Location::Field(f) => ParseError::new(Location::Field(format!("{prefix}.{f}")), e.problem),
             at => ParseError::new(at, e.problem),
@@ -185,7 +186,10 @@ impl Rig {
 
     fn from_parsed(t: RigToml) -> Result<Rig, ParseError> {
         if t.format != RIG_FORMAT {
-            return Err(invalid("format", format!("rig format {} is not supported (this scanrig reads {RIG_FORMAT})", t.format)));
+            return Err(invalid(
+                "format",
+                format!("rig format {} is not supported (this scanrig reads {RIG_FORMAT})", t.format),
+            ));
         }
         let camera = lens_from(&t.camera, "camera")?;
         let projector = t

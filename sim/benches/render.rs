@@ -4,7 +4,7 @@
 //! `cargo bench -p sim --bench render` — prints one line per case with the median of 3 runs.
 
 use rig::Method;
-use sim::{Albedo, Scene, ScanOptions, SimConfig, simulate_scan};
+use sim::{Albedo, ScanOptions, Scene, SimConfig, simulate_scan};
 use std::path::Path;
 
 fn main() {

@@ -8,7 +8,7 @@
 //! [sensor]         # exposure, gain, full_well_e (0 = noiseless), read_noise_e, ambient
 //! [projector]      # power, gamma, black_level, defocus_px
 //! [[lasers]]       # one emitter per rig laser: origin_mm (on its plane), line_width_mm (FWHM), power
-//! [scene]          # platter_radius_mm, platter_albedo, object_albedo, object_size_mm
+//! [scene]          # platter_radius_mm, platter_albedo, object_albedo, object_size_mm, work_light
 //! [scan]           # views, phase = [{ axis = "columns", period_px = 16.0, steps = 4 }, …]
 //! ```
 //! Every section but `[rig]` may be left out; the defaults are a clean, well-exposed desktop setup.
@@ -95,11 +95,20 @@ pub struct SceneConfig {
     pub object_albedo: Real,
     /// Largest extent of the object after scaling (mm).
     pub object_size_mm: Real,
+    /// The work light (an LED ring, room light) for lit frames on rigs without a projector, as a fraction
+    /// of full scale on a white surface.
+    pub work_light: Real,
 }
 
 impl Default for SceneConfig {
     fn default() -> Self {
-        SceneConfig { platter_radius_mm: 100.0, platter_albedo: 0.3, object_albedo: 0.8, object_size_mm: 120.0 }
+        SceneConfig {
+            platter_radius_mm: 100.0,
+            platter_albedo: 0.3,
+            object_albedo: 0.8,
+            object_size_mm: 120.0,
+            work_light: 0.6,
+        }
     }
 }
 
@@ -166,17 +175,27 @@ impl SimConfig {
             ParseError::new(Location::Line(line), Problem::Syntax(e.message().trim().to_string()))
         })?;
         if t.format != 1 {
-            return Err(invalid("format", format!("simulator config format {} is not supported (this reads 1)", t.format)));
+            return Err(invalid(
+                "format",
+                format!("simulator config format {} is not supported (this reads 1)", t.format),
+            ));
         }
         let rig = Rig::from_toml_table(t.rig, "rig")?;
         if t.lasers.len() != rig.lasers.len() {
-            let msg = format!("{} emitters for the rig's {} lasers: give one `[[lasers]]` per laser", t.lasers.len(), rig.lasers.len());
+            let msg = format!(
+                "{} emitters for the rig's {} lasers: give one `[[lasers]]` per laser",
+                t.lasers.len(),
+                rig.lasers.len()
+            );
             return Err(invalid("lasers", msg));
         }
         for (i, (e, l)) in t.lasers.iter().zip(&rig.lasers).enumerate() {
             let off = l.plane.signed_distance(&Point3::from(e.origin_mm));
             if off.abs() > 1e-3 {
-                return Err(invalid(&format!("lasers[{i}].origin_mm"), format!("lies {off:.4} mm off laser `{}`'s plane", l.name)));
+                return Err(invalid(
+                    &format!("lasers[{i}].origin_mm"),
+                    format!("lies {off:.4} mm off laser `{}`'s plane", l.name),
+                ));
             }
             if !(e.line_width_mm > 0.0 && e.power >= 0.0) {
                 return Err(invalid(&format!("lasers[{i}]"), "line_width_mm must be positive and power non-negative"));
@@ -194,7 +213,7 @@ impl SimConfig {
             return Err(invalid("scan.views", "must be at least 1"));
         }
         for (i, ph) in t.scan.phase.iter().enumerate() {
-            if ph.steps < 3 || !(ph.period_px >= 2.0) {
+            if ph.steps < 3 || ph.period_px.is_nan() || ph.period_px < 2.0 {
                 return Err(invalid(&format!("scan.phase[{i}]"), "needs steps ≥ 3 and period_px ≥ 2"));
             }
         }

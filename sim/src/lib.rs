@@ -12,6 +12,7 @@
 //!   once per view; [`render_frame`] then forms each frame from it (Lambertian shading, pattern light with
 //!   gamma and defocus, Gaussian laser profile, shot and read noise, 8-bit quantisation).
 //! - [`simulate_scan`]: the whole capture program into a scan folder with `truth/`; deterministic per seed.
+//! - [`simulate_board`]: calibration captures of a chessboard at given poses or swept on the turntable.
 //!
 //! ```
 //! use sim::{Part, PartKind, Mount, Albedo, Scene, Sphere, SimConfig, view_geometry, pixel_rays};
@@ -30,6 +31,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod board;
 pub mod bvh;
 pub mod config;
 pub mod geometry;
@@ -41,6 +43,7 @@ pub mod scene;
 pub mod surface;
 pub mod truth;
 
+pub use board::{Board, BoardPoses, simulate_board};
 pub use config::SimConfig;
 pub use geometry::{ViewGeometry, pixel_rays, view_geometry};
 pub use object::{UpAxis, fluted_vase, fluted_vase_tessellated, place_on_platter};

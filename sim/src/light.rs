@@ -36,7 +36,8 @@ fn normal_cdf(x: Real) -> Real {
             + t * (0.37409196
                 + t * (0.09678418
                     + t * (-0.18628806
-                        + t * (0.27886807 + t * (-1.13520398 + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277))))))));
+                        + t * (0.27886807
+                            + t * (-1.13520398 + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277))))))));
     let erfc = t * poly.exp();
     if x >= 0.0 { 1.0 - 0.5 * erfc } else { 0.5 * erfc }
 }
@@ -70,7 +71,8 @@ impl PatternLight {
                     let hi = ((u + 4.0 * sigma + 0.5).ceil() as i64).min(size as i64 - 1);
                     (lo..=hi)
                         .map(|c| {
-                            let w = normal_cdf((c as Real + 0.5 - u) / sigma) - normal_cdf((c as Real - 0.5 - u) / sigma);
+                            let w =
+                                normal_cdf((c as Real + 0.5 - u) / sigma) - normal_cdf((c as Real - 0.5 - u) / sigma);
                             w * pixels[c as usize] as Real
                         })
                         .sum::<Real>() as f32

@@ -42,6 +42,8 @@ fn radiance(g: &ViewGeometry, cfg: &SimConfig, light: &PatternLight, i: usize) -
     let mut e = cfg.sensor.ambient;
     match light.pattern() {
         Pattern::LaserOff => {}
+        // A lit frame on a rig without a projector: the work light is on.
+        Pattern::White if cfg.rig.projector.is_none() => e += cfg.scene.work_light,
         Pattern::Laser { index } => {
             let em = &cfg.lasers[index];
             let sigma = em.line_width_mm / (8.0 * std::f64::consts::LN_2).sqrt();

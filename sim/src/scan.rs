@@ -34,12 +34,31 @@ pub struct ScanReport {
     pub frames_per_second: Real,
 }
 
+impl ScanReport {
+    /// Counts a view whose geometry ran from `t0` to `t1` and whose frames were written since.
+    pub(crate) fn add_view(&mut self, t0: Instant, t1: Instant, frames: usize) {
+        self.geometry_seconds += (t1 - t0).as_secs_f64();
+        self.frame_seconds += t1.elapsed().as_secs_f64();
+        self.views_rendered += 1;
+        self.frames_written += frames;
+    }
+
+    /// Closes the report of a run that started at `start`.
+    pub(crate) fn finish(mut self, start: Instant) -> Self {
+        self.total_seconds = start.elapsed().as_secs_f64();
+        self.frames_per_second = self.frames_written as Real / self.total_seconds.max(1e-9);
+        self
+    }
+}
+
 /// The frames of one view of `method` on this rig.
 pub fn program(cfg: &SimConfig, method: Method) -> Result<Vec<Pattern>, Error> {
     let mut seq = Vec::new();
     if matches!(method, Method::StructuredLight | Method::Board) {
         match &cfg.rig.projector {
-            Some(p) => seq.extend(rig::patterns::structured_light_sequence(p.lens.width, p.lens.height, &cfg.scan.phase)),
+            Some(p) => {
+                seq.extend(rig::patterns::structured_light_sequence(p.lens.width, p.lens.height, &cfg.scan.phase))
+            }
             None if method == Method::StructuredLight => {
                 return Err(Error::Setup("a structured-light scan needs a rig with a [projector]".into()));
             }
@@ -70,6 +89,62 @@ pub fn render_view(
     lights.par_iter().enumerate().map(|(f, light)| render_frame(g, cfg, light, frame_key(seed, view, f))).collect()
 }
 
+/// Writes one view's frames (in parallel) and, if asked, its truth.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn write_view(
+    out: &Path,
+    cfg: &SimConfig,
+    g: &ViewGeometry,
+    lights: &[PatternLight],
+    frames: &[Frame],
+    opts: ScanOptions,
+    v: usize,
+    pose: &Isometry3,
+) -> Result<(), Error> {
+    let dir = out.join(format!("frames/view_{v:03}"));
+    std::fs::create_dir_all(&dir).map_err(|e| Error::File(rig::Error::io(&dir, e)))?;
+    lights.par_iter().zip(frames).enumerate().try_for_each(|(f, (light, frame))| -> Result<(), Error> {
+        let img = render_frame(g, cfg, light, frame_key(opts.seed, v, f));
+        // Frames are plain writes: the view only counts once the manifest says it is complete.
+        let path = out.join(&frame.file);
+        std::fs::write(&path, rig::image::png_bytes(&img, true)).map_err(|e| Error::File(rig::Error::io(&path, e)))
+    })?;
+    if opts.truth {
+        truth::write_view(&out.join(format!("truth/view_{v:03}")), g, pose, cfg.rig.camera.fx)?;
+    }
+    Ok(())
+}
+
+/// The pattern lights of a program, tabulated once per scan.
+pub(crate) fn lights_for(cfg: &SimConfig, patterns: &[Pattern]) -> Vec<PatternLight> {
+    let lens = cfg.rig.projector.as_ref().map(|p| p.lens).unwrap_or(cfg.rig.camera);
+    patterns.iter().map(|&pat| PatternLight::new(pat, &lens, &cfg.projector)).collect()
+}
+
+/// The manifest of a fresh scan: every view incomplete, frame files named by view and pattern.
+pub(crate) fn fresh_manifest(method: Method, seed: u64, angles: &[Real], patterns: &[Pattern]) -> Manifest {
+    Manifest {
+        format: SCAN_FORMAT,
+        method,
+        rig: "rig.toml".into(),
+        source: "simulator".into(),
+        seed: Some(seed),
+        views: angles
+            .iter()
+            .enumerate()
+            .map(|(v, &angle_deg)| View {
+                angle_deg,
+                frames: patterns
+                    .iter()
+                    .enumerate()
+                    .map(|(f, p)| Frame { file: format!("frames/view_{v:03}/{f:02}_{}.png", p.name()), pattern: *p })
+                    .collect(),
+                complete: false,
+            })
+            .collect(),
+    }
+}
+
 /// Options of a simulated scan.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ScanOptions {
@@ -98,24 +173,8 @@ pub fn simulate_scan(
     let step = 360.0 / views as Real;
     let mkdir = |p: &Path| std::fs::create_dir_all(p).map_err(|e| Error::File(rig::Error::io(p, e)));
     mkdir(out)?;
-    let fresh = Manifest {
-        format: SCAN_FORMAT,
-        method: opts.method,
-        rig: "rig.toml".into(),
-        source: "simulator".into(),
-        seed: Some(opts.seed),
-        views: (0..views)
-            .map(|v| View {
-                angle_deg: v as Real * step,
-                frames: patterns
-                    .iter()
-                    .enumerate()
-                    .map(|(f, p)| Frame { file: format!("frames/view_{v:03}/{f:02}_{}.png", p.name()), pattern: *p })
-                    .collect(),
-                complete: false,
-            })
-            .collect(),
-    };
+    let angles: Vec<Real> = (0..views).map(|v| v as Real * step).collect();
+    let fresh = fresh_manifest(opts.method, opts.seed, &angles, &patterns);
     let mut manifest = match Manifest::read(out) {
         Ok(old) if old.views.len() == views && old.seed == fresh.seed && old.method == fresh.method => old,
         Ok(_) => {
@@ -128,18 +187,17 @@ pub fn simulate_scan(
             cfg.rig.write(&out.join("rig.toml"))?;
             if let (Some(m), true) = (object, opts.truth) {
                 mkdir(&out.join("truth"))?;
-                rig::ply::write_mesh(&out.join("truth/object.ply"), &m.to_poly(), &rig::ply::WriteOptions::default().with_units("mm"))?;
+                rig::ply::write_mesh(
+                    &out.join("truth/object.ply"),
+                    &m.to_poly(),
+                    &rig::ply::WriteOptions::default().with_units("mm"),
+                )?;
             }
             fresh.write(out)?;
             fresh
         }
     };
-    let lights: Vec<PatternLight> = cfg
-        .rig
-        .projector
-        .as_ref()
-        .map(|p| patterns.iter().map(|&pat| PatternLight::new(pat, &p.lens, &cfg.projector)).collect())
-        .unwrap_or_else(|| patterns.iter().map(|&pat| PatternLight::new(pat, &cfg.rig.camera, &cfg.projector)).collect());
+    let lights = lights_for(cfg, &patterns);
     let rays = pixel_rays(&cfg.rig.camera);
     let mut report = ScanReport { views, ..Default::default() };
     for v in manifest.first_incomplete().unwrap_or(views)..views {
@@ -150,26 +208,12 @@ pub fn simulate_scan(
         let pose = view_pose(cfg, manifest.views[v].angle_deg);
         let g = view_geometry(scene, cfg, &rays, &pose);
         let t1 = Instant::now();
-        mkdir(&out.join(format!("frames/view_{v:03}")))?;
         let frames = manifest.views[v].frames.clone();
-        lights.par_iter().zip(&frames).enumerate().try_for_each(|(f, (light, frame))| -> Result<(), Error> {
-            let img = render_frame(&g, cfg, light, frame_key(opts.seed, v, f));
-            // Frames are plain writes: the view only counts once the manifest says it is complete.
-            let path = out.join(&frame.file);
-            std::fs::write(&path, rig::image::png_bytes(&img, true)).map_err(|e| Error::File(rig::Error::io(&path, e)))
-        })?;
-        if opts.truth {
-            truth::write_view(&out.join(format!("truth/view_{v:03}")), &g, &pose, cfg.rig.camera.fx)?;
-        }
+        write_view(out, cfg, &g, &lights, &frames, opts, v, &pose)?;
         manifest.views[v].complete = true;
         manifest.write(out)?;
-        report.geometry_seconds += (t1 - t0).as_secs_f64();
-        report.frame_seconds += t1.elapsed().as_secs_f64();
-        report.views_rendered += 1;
-        report.frames_written += frames.len();
+        report.add_view(t0, t1, patterns.len());
         progress(v + 1, views);
     }
-    report.total_seconds = start.elapsed().as_secs_f64();
-    report.frames_per_second = report.frames_written as Real / report.total_seconds.max(1e-9);
-    Ok(report)
+    Ok(report.finish(start))
 }

@@ -86,8 +86,11 @@ impl Surface for Rectangle {
             return None;
         }
         let p = origin + dir * t;
-        (p.x.abs() <= self.half_width && p.y.abs() <= self.half_height)
-            .then_some(LocalHit { t, normal: Vector3::z(), uv: (0, p.x, p.y) })
+        (p.x.abs() <= self.half_width && p.y.abs() <= self.half_height).then_some(LocalHit {
+            t,
+            normal: Vector3::z(),
+            uv: (0, p.x, p.y),
+        })
     }
 }
 
@@ -105,8 +108,11 @@ impl Surface for Disc {
             return None;
         }
         let p = origin + dir * t;
-        (p.x * p.x + p.y * p.y <= self.radius * self.radius)
-            .then_some(LocalHit { t, normal: Vector3::z(), uv: (0, p.x, p.y) })
+        (p.x * p.x + p.y * p.y <= self.radius * self.radius).then_some(LocalHit {
+            t,
+            normal: Vector3::z(),
+            uv: (0, p.x, p.y),
+        })
     }
 }
 

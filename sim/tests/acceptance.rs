@@ -5,7 +5,7 @@ use rig::math::{Isometry3, Point2, Point3, Real, Vector3};
 use rig::npy;
 use rig::scan_folder::Manifest;
 use rig::{Method, Pattern, PolyMesh};
-use sim::{Albedo, Mount, Part, PartKind, Rectangle, Scene, ScanOptions, SimConfig, Sphere, simulate_scan};
+use sim::{Albedo, Mount, Part, PartKind, Rectangle, ScanOptions, Scene, SimConfig, Sphere, simulate_scan};
 use std::path::{Path, PathBuf};
 
 fn config(name: &str) -> SimConfig {
@@ -100,19 +100,23 @@ fn reference_decode(out: &Path, m: &Manifest, w: usize, h: usize) -> (Vec<u32>, 
             let a = rig::image::read_png(&out.join(&f.file)).unwrap();
             let b = rig::image::read_png(&out.join(&frames[k + 1].file)).unwrap();
             let target = if axis == rig::Axis::Columns { &mut col } else { &mut row };
-            for i in 0..w * h {
-                target[i] = (target[i] << 1) | u32::from(a.data[i] > b.data[i]);
+            for ((t, pa), pb) in target.iter_mut().zip(&a.data).zip(&b.data) {
+                *t = (*t << 1) | u32::from(pa > pb);
             }
         }
     }
-    (col.into_iter().map(rig::patterns::gray_inverse).collect(), row.into_iter().map(rig::patterns::gray_inverse).collect())
+    (
+        col.into_iter().map(rig::patterns::gray_inverse).collect(),
+        row.into_iter().map(rig::patterns::gray_inverse).collect(),
+    )
 }
 
 #[test]
 fn gray_code_frames_of_a_plane_decode_to_the_projector_pixel_geometry_predicts() {
     let cfg = noiseless("sim-structured-light.toml", 640, 512);
     let (pose, _) = tilted_plane();
-    let scene = Scene { parts: vec![fixed(PartKind::Object, Rectangle { half_width: 400.0, half_height: 400.0 }, pose)] };
+    let scene =
+        Scene { parts: vec![fixed(PartKind::Object, Rectangle { half_width: 400.0, half_height: 400.0 }, pose)] };
     let out = tmp("gray");
     let m = scan(&cfg, &scene, Method::StructuredLight, 3, &out);
     let (w, h) = (640, 512);
@@ -134,7 +138,15 @@ fn gray_code_frames_of_a_plane_decode_to_the_projector_pixel_geometry_predicts()
 
 /// A closed box mesh of half-size `s` at `c`.
 fn box_mesh(c: Point3, s: Vector3) -> rig::TriMesh {
-    let v = (0..8).map(|i| c + Vector3::new(if i & 1 == 0 { -s.x } else { s.x }, if i & 2 == 0 { -s.y } else { s.y }, if i & 4 == 0 { -s.z } else { s.z })).collect();
+    let v = (0..8)
+        .map(|i| {
+            c + Vector3::new(
+                if i & 1 == 0 { -s.x } else { s.x },
+                if i & 2 == 0 { -s.y } else { s.y },
+                if i & 4 == 0 { -s.z } else { s.z },
+            )
+        })
+        .collect();
     let quads = [[0u32, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
     PolyMesh::from_faces(v, quads).triangulate()
 }
@@ -226,8 +238,15 @@ fn same_seed_gives_identical_frames_another_seed_other_noise_same_truth() {
     let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(0.8));
     let run = |seed: u64, tag: &str| {
         let out = tmp(tag);
-        simulate_scan(&cfg, &scene, Some(&vase), ScanOptions { method: Method::StructuredLight, seed, truth: true }, &out, |_, _| {})
-            .unwrap();
+        simulate_scan(
+            &cfg,
+            &scene,
+            Some(&vase),
+            ScanOptions { method: Method::StructuredLight, seed, truth: true },
+            &out,
+            |_, _| {},
+        )
+        .unwrap();
         out
     };
     let (a, b, c) = (run(7, "seed-a"), run(7, "seed-b"), run(8, "seed-c"));
@@ -235,7 +254,11 @@ fn same_seed_gives_identical_frames_another_seed_other_noise_same_truth() {
     let mut differing = 0;
     for v in &m.views {
         for f in &v.frames {
-            let (fa, fb, fc) = (std::fs::read(a.join(&f.file)).unwrap(), std::fs::read(b.join(&f.file)).unwrap(), std::fs::read(c.join(&f.file)).unwrap());
+            let (fa, fb, fc) = (
+                std::fs::read(a.join(&f.file)).unwrap(),
+                std::fs::read(b.join(&f.file)).unwrap(),
+                std::fs::read(c.join(&f.file)).unwrap(),
+            );
             assert_eq!(fa, fb, "{} differs between runs with the same seed", f.file);
             differing += usize::from(fa != fc);
         }
@@ -257,7 +280,15 @@ fn brightest_pixel_of_each_row_sits_on_the_truth_laser_line() {
     let vase = sim::fluted_vase(120.0);
     let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(0.8));
     let out = tmp("laser");
-    simulate_scan(&cfg, &scene, Some(&vase), ScanOptions { method: Method::Laser, seed: 2, truth: true }, &out, |_, _| {}).unwrap();
+    simulate_scan(
+        &cfg,
+        &scene,
+        Some(&vase),
+        ScanOptions { method: Method::Laser, seed: 2, truth: true },
+        &out,
+        |_, _| {},
+    )
+    .unwrap();
     let m = Manifest::read(&out).unwrap();
     let (w, h) = (1280usize, 960usize);
     let (mut rows, mut good) = (0, 0);
@@ -285,5 +316,38 @@ fn brightest_pixel_of_each_row_sits_on_the_truth_laser_line() {
     let frac = good as Real / rows as Real;
     eprintln!("{good} of {rows} rows: brightest pixel within 0.5 px of the truth line ({:.2} %)", 100.0 * frac);
     assert!(rows > 1000 && frac >= 0.99, "{frac}");
+    std::fs::remove_dir_all(&out).unwrap();
+}
+
+#[test]
+fn board_truth_corners_sit_where_the_lit_frame_changes_colour() {
+    let mut cfg = noiseless("sim-laser.toml", 640, 480);
+    cfg.scene.platter_radius_mm = 0.0;
+    let board = sim::Board { cols: 9, rows: 6, square_mm: 15.0 };
+    let poses = sim::board::default_fixed_poses(&board, 320.0, 5);
+    let out = tmp("board");
+    let opts = ScanOptions { method: Method::Board, seed: 4, truth: true };
+    sim::simulate_board(&cfg, &board, &sim::BoardPoses::Fixed(poses), opts, &out, |_, _| {}).unwrap();
+    let m = Manifest::read(&out).unwrap();
+    let mut checked = 0;
+    for v in 0..m.views.len() {
+        let lit = rig::image::read_png(&out.join(&m.views[v].frames[0].file)).unwrap();
+        assert_eq!(m.views[v].frames[0].pattern, Pattern::White);
+        let corners = load(&out.join(format!("truth/view_{v:03}/corners.npy")));
+        for c in corners.chunks(2) {
+            let (x, y) = (c[0].round() as i64, c[1].round() as i64);
+            if x < 4 || y < 4 || x > 635 || y > 475 {
+                continue;
+            }
+            // Diagonal neighbours 3 px away lie in the four squares around the corner: the two on one
+            // diagonal share a colour, and it differs from the other diagonal's.
+            let at = |dx: i64, dy: i64| lit.at((x + dx) as u32, (y + dy) as u32) as i32;
+            let (d1, d2) = (at(-3, -3).min(at(3, 3)), at(3, -3).max(at(-3, 3)));
+            let (e1, e2) = (at(-3, -3).max(at(3, 3)), at(3, -3).min(at(-3, 3)));
+            assert!(d1 > d2 + 40 || e2 > e1 + 40, "view {v}: no colour change at corner ({}, {})", c[0], c[1]);
+            checked += 1;
+        }
+    }
+    assert!(checked > 200, "{checked} corners checked");
     std::fs::remove_dir_all(&out).unwrap();
 }

@@ -1,0 +1,190 @@
+//! Calibration captures: a chessboard at given poses, or standing on the turntable and swept through
+//! angles, photographed lit, under the full structured-light program, and with each laser on it — the
+//! captures `calib` estimates a rig from, with the true board poses and corner pixels as truth.
+//!
+//! # Conventions
+//! The board frame has its origin on the first inner corner, x along a row of corners, y down the
+//! columns, z out of the printed face; inner corner (i, j) is at (i·square, j·square, 0), listed
+//! row-major (i fastest), as OpenCV's `findChessboardCorners` orders them.
+
+use crate::Error;
+use crate::config::SimConfig;
+use crate::geometry::{pixel_rays, view_geometry};
+use crate::scan::{ScanOptions, ScanReport, fresh_manifest, lights_for, program, write_view};
+use crate::scene::{Albedo, Mount, Part, PartKind, Scene};
+use crate::surface::Rectangle;
+use rig::Method;
+use rig::math::{Isometry3, Point3, Real, Translation3, UnitQuaternion, Vector3};
+use rig::npy::{NpyArray, NpyData};
+use rig::scan_folder::Manifest;
+use std::path::Path;
+use std::time::Instant;
+
+/// A printed chessboard.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Board {
+    /// Inner corners along a row.
+    pub cols: u32,
+    /// Inner corners down a column.
+    pub rows: u32,
+    /// Square size (mm).
+    pub square_mm: Real,
+}
+
+impl Board {
+    /// The inner corners in the board frame, row-major.
+    pub fn corners(&self) -> Vec<Point3> {
+        (0..self.rows)
+            .flat_map(|j| {
+                (0..self.cols).map(move |i| Point3::new(i as Real * self.square_mm, j as Real * self.square_mm, 0.0))
+            })
+            .collect()
+    }
+
+    /// The board's centre in its own frame.
+    fn centre(&self) -> Vector3 {
+        Vector3::new((self.cols as Real - 1.0) / 2.0, (self.rows as Real - 1.0) / 2.0, 0.0) * self.square_mm
+    }
+
+    /// The board as a scene part at `pose` (board frame → mount frame): the squares plus a light margin
+    /// of one square.
+    pub fn part(&self, pose: Isometry3, mount: Mount) -> Part {
+        let s = self.square_mm;
+        let c = self.centre();
+        Part {
+            kind: PartKind::Board,
+            surface: Box::new(Rectangle {
+                half_width: (self.cols as Real + 3.0) * s / 2.0,
+                half_height: (self.rows as Real + 3.0) * s / 2.0,
+            }),
+            pose: pose * Translation3::from(c),
+            mount,
+            albedo: Albedo::Checker {
+                square_mm: s,
+                cols: self.cols,
+                rows: self.rows,
+                origin: (-c.x, -c.y),
+                dark: 0.05,
+                light: 0.85,
+            },
+        }
+    }
+}
+
+/// Where the board is in each view.
+#[derive(Debug, Clone, PartialEq)]
+pub enum BoardPoses {
+    /// Fixed poses in the camera frame (camera_from_board), one view each.
+    Fixed(Vec<Isometry3>),
+    /// Standing on the platter, facing the camera at 0°, swept through these turntable angles.
+    Turntable(Vec<Real>),
+}
+
+/// A spread of board poses for camera calibration: the board centred `distance_mm` ahead, tilted up to
+/// ±35° about both image axes and turned in its plane, so Zhang's method sees well-conditioned views.
+pub fn default_fixed_poses(board: &Board, distance_mm: Real, count: usize) -> Vec<Isometry3> {
+    let c = board.centre();
+    (0..count)
+        .map(|k| {
+            let a = k as Real / count.max(1) as Real * std::f64::consts::TAU;
+            let tilt_x = 35f64.to_radians() * a.sin();
+            let tilt_y = 35f64.to_radians() * (a * 2.0 + 0.7).cos();
+            let roll = 12f64.to_radians() * (a * 3.0).sin();
+            let rot = UnitQuaternion::from_euler_angles(tilt_x, tilt_y, roll);
+            // Drift the centre around the image so corners cover the lens's edges too.
+            let centre = Point3::new(0.18 * distance_mm * a.cos(), 0.12 * distance_mm * (a * 2.0).sin(), distance_mm);
+            Isometry3::from_parts(Translation3::from(centre.coords - rot * c), rot)
+        })
+        .collect()
+}
+
+/// The board standing on the platter in the object frame: its bottom margin on z = 0, centred on the
+/// axis, facing the camera (−y of the object frame) at 0°.
+pub fn standing_on_platter(board: &Board) -> Isometry3 {
+    let s = board.square_mm;
+    let c = board.centre();
+    // Rows run down the standing board: board x is object x, board y is object −z, and so board z =
+    // x × y is object +y, away from the camera (the simulator prints both faces).
+    let rot = UnitQuaternion::from_basis_unchecked(&[Vector3::x(), -Vector3::z(), Vector3::y()]);
+    let height = (board.rows as Real + 1.0) * s; // the bottom margin's lower edge touches the platter
+    Isometry3::from_parts(Translation3::new(-c.x, 0.0, height), rot)
+}
+
+/// Simulates calibration captures of `board` into `out`: one view per pose, frames as the rig's
+/// program (structured light if it has a projector, then laser-off and one frame per laser), and in
+/// `truth/view_NNN/` besides the usual maps `board_pose.npy` (4×4 camera_from_board) and `corners.npy`
+/// (N×2 distorted pixel positions of the inner corners, row-major; NaN behind the camera).
+pub fn simulate_board(
+    cfg: &SimConfig,
+    board: &Board,
+    poses: &BoardPoses,
+    opts: ScanOptions,
+    out: &Path,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<ScanReport, Error> {
+    let start = Instant::now();
+    let patterns = program(cfg, Method::Board)?;
+    let (angles, fixed): (Vec<Real>, Vec<Option<Isometry3>>) = match poses {
+        BoardPoses::Fixed(p) => (vec![0.0; p.len()], p.iter().map(|&q| Some(q)).collect()),
+        BoardPoses::Turntable(a) => (a.clone(), vec![None; a.len()]),
+    };
+    if angles.is_empty() {
+        return Err(Error::Setup("no board poses given".into()));
+    }
+    std::fs::create_dir_all(out).map_err(|e| Error::File(rig::Error::io(out, e)))?;
+    cfg.rig.write(&out.join("rig.toml"))?;
+    let mut manifest: Manifest = fresh_manifest(Method::Board, opts.seed, &angles, &patterns);
+    manifest.write(out)?;
+    let lights = lights_for(cfg, &patterns);
+    let rays = pixel_rays(&cfg.rig.camera);
+    let mut report = ScanReport { views: angles.len(), ..Default::default() };
+    for (v, (&angle, fixed)) in angles.iter().zip(&fixed).enumerate() {
+        let t0 = Instant::now();
+        let mut scene = Scene::default();
+        if cfg.scene.platter_radius_mm > 0.0 && cfg.rig.turntable.is_some() {
+            scene.parts.push(Part {
+                kind: PartKind::Platter,
+                surface: Box::new(crate::surface::Disc { radius: cfg.scene.platter_radius_mm }),
+                pose: Isometry3::identity(),
+                mount: Mount::Turntable,
+                albedo: Albedo::Constant(cfg.scene.platter_albedo),
+            });
+        }
+        let view_pose = crate::scan::view_pose(cfg, angle);
+        let camera_from_board = match fixed {
+            Some(p) => {
+                scene.parts.push(board.part(*p, Mount::Fixed));
+                *p
+            }
+            None => {
+                let on_platter = standing_on_platter(board);
+                scene.parts.push(board.part(on_platter, Mount::Turntable));
+                view_pose * on_platter
+            }
+        };
+        let g = view_geometry(&scene, cfg, &rays, &view_pose);
+        let t1 = Instant::now();
+        write_view(out, cfg, &g, &lights, &manifest.views[v].frames.clone(), opts, v, &view_pose)?;
+        if opts.truth {
+            let dir = out.join(format!("truth/view_{v:03}"));
+            let m = camera_from_board.to_homogeneous();
+            let pose = NpyArray { shape: vec![4, 4], data: NpyData::F64(m.transpose().iter().copied().collect()) };
+            rig::npy::write(&dir.join("board_pose.npy"), &pose)?;
+            let px: Vec<f64> = board
+                .corners()
+                .iter()
+                .flat_map(|c| match cfg.rig.camera.project(&(camera_from_board * c)) {
+                    Some(p) => [p.x, p.y],
+                    None => [f64::NAN; 2],
+                })
+                .collect();
+            let n = px.len() / 2;
+            rig::npy::write(&dir.join("corners.npy"), &NpyArray { shape: vec![n, 2], data: NpyData::F64(px) })?;
+        }
+        manifest.views[v].complete = true;
+        manifest.write(out)?;
+        report.add_view(t0, t1, patterns.len());
+        progress(v + 1, angles.len());
+    }
+    Ok(report.finish(start))
+}
