@@ -6,7 +6,7 @@
 //! projected image, exactly as for cameras.
 
 use crate::camera::PinholeCamera;
-use crate::math::{Isometry3, Point2, Point3, UnitVector3};
+use crate::math::{Isometry3, Point2, Point3, Real, UnitVector3};
 
 /// A calibrated projector.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -15,9 +15,18 @@ pub struct Projector {
     pub lens: PinholeCamera,
     /// Camera frame → projector frame.
     pub from_camera: Isometry3,
+    /// Response exponent: emitted light ∝ drive^gamma (1 for a linear projector). Capture programs
+    /// drive grey-level patterns with [`Projector::drive`] so the emitted light is what the pattern
+    /// asks for — an uncorrected gamma is the most common cause of wavy phase-shift surfaces.
+    pub gamma: Real,
 }
 
 impl Projector {
+    /// The drive value (what the projector is sent) that emits relative `light` in [0, 1].
+    pub fn drive(&self, light: Real) -> Real {
+        light.clamp(0.0, 1.0).powf(1.0 / self.gamma)
+    }
+
     /// The projector pixel that lights a point given in the camera frame (mm).
     pub fn project(&self, p_cam: &Point3) -> Option<Point2> {
         self.lens.project(&(self.from_camera * p_cam))

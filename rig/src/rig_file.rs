@@ -17,6 +17,7 @@
 //! [projector]                    # X_p = rotation · X_c + translation_mm
 //! rotation = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
 //! translation_mm = [-150.0, 0.0, 0.0]
+//! gamma = 2.2                    # response exponent, 1 = linear (phase patterns are pre-compensated)
 //! [projector.lens]               # same fields as [camera]
 //! width_px = 1024
 //! # …
@@ -34,7 +35,7 @@
 use crate::camera::{Distortion, PinholeCamera};
 use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
 use crate::laser::LaserPlane;
-use crate::math::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, UnitVector3, Vector3};
+use crate::math::{Isometry3, Matrix3, Point3, Real, Rotation3, Translation3, UnitQuaternion, UnitVector3, Vector3};
 use crate::projector::Projector;
 use crate::turntable::TurntableAxis;
 use serde::{Deserialize, Serialize};
@@ -65,6 +66,8 @@ pub struct Rig {
     pub lasers: Vec<Laser>,
     /// The turntable axis, where there is a turntable.
     pub turntable: Option<TurntableAxis>,
+    /// The platter's radius (mm), where known: processing crops the turntable out by it.
+    pub platter_radius_mm: Option<Real>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -100,6 +103,8 @@ struct LensToml {
 struct ProjectorToml {
     rotation: [[f64; 3]; 3],
     translation_mm: [f64; 3],
+    #[serde(default = "linear")]
+    gamma: f64,
     lens: LensToml,
 }
 
@@ -116,6 +121,12 @@ struct LaserToml {
 struct TurntableToml {
     axis_point_mm: [f64; 3],
     axis_direction: [f64; 3],
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    platter_radius_mm: Option<f64>,
+}
+
+fn linear() -> f64 {
+    1.0
 }
 
 fn invalid(field: &str, msg: impl Into<String>) -> ParseError {
@@ -209,7 +220,10 @@ impl Rig {
                 finite(&p.translation_mm, "projector.translation_mm")?;
                 let rot = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&m));
                 let from_camera = Isometry3::from_parts(Translation3::from(Vector3::from(p.translation_mm)), rot);
-                Ok(Projector { lens, from_camera })
+                if !(p.gamma.is_finite() && p.gamma > 0.0) {
+                    return Err(invalid("projector.gamma", "must be positive (1 for a linear projector)"));
+                }
+                Ok(Projector { lens, from_camera, gamma: p.gamma })
             })
             .transpose()?;
         let mut lasers = Vec::new();
@@ -232,7 +246,11 @@ impl Rig {
                 })
             })
             .transpose()?;
-        Ok(Rig { name: t.name, camera, projector, lasers, turntable })
+        let platter_radius_mm = t.turntable.as_ref().and_then(|tt| tt.platter_radius_mm);
+        if platter_radius_mm.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
+            return Err(invalid("turntable.platter_radius_mm", "must be positive"));
+        }
+        Ok(Rig { name: t.name, camera, projector, lasers, turntable, platter_radius_mm })
     }
 
     /// The rig as TOML text, with a comment block stating the conventions.
@@ -247,6 +265,7 @@ impl Rig {
                 ProjectorToml {
                     rotation: [0, 1, 2].map(|i| [m[(i, 0)], m[(i, 1)], m[(i, 2)]]),
                     translation_mm: p.from_camera.translation.vector.into(),
+                    gamma: p.gamma,
                     lens: lens_to(&p.lens),
                 }
             }),
@@ -262,13 +281,14 @@ impl Rig {
             turntable: self.turntable.map(|a| TurntableToml {
                 axis_point_mm: a.point.coords.into(),
                 axis_direction: a.direction.into_inner().into(),
+                platter_radius_mm: self.platter_radius_mm,
             }),
         };
         let body = toml::to_string(&t).expect("a rig always serialises: plain numbers, strings and arrays");
         format!(
             "# scanrig rig description. Frames follow OpenCV: camera x right, y down, z forward; millimetres.\n\
              # camera/lens: intrinsics in px, distortion = [k1, k2, p1, p2, k3].\n\
-             # projector: X_projector = rotation · X_camera + translation_mm.\n\
+             # projector: X_projector = rotation · X_camera + translation_mm; gamma: light ∝ drive^gamma.\n\
              # lasers: plane normal · X = distance_mm in the camera frame.\n\
              # turntable: platter centre and up axis in the camera frame.\n\n{body}"
         )

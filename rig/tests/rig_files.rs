@@ -34,7 +34,7 @@ fn full_rig() -> Rig {
     Rig {
         name: "test rig".into(),
         camera: strong(),
-        projector: Some(Projector { lens: PinholeCamera::ideal(1024, 768, 1500.0), from_camera }),
+        projector: Some(Projector { lens: PinholeCamera::ideal(1024, 768, 1500.0), from_camera, gamma: 2.2 }),
         lasers: vec![
             rig::Laser { name: "left".into(), plane: LaserPlane::new(Vector3::new(0.866, 0.0, 0.5), 150.0).unwrap() },
             rig::Laser { name: "right".into(), plane: LaserPlane::new(Vector3::new(-0.866, 0.0, 0.5), 150.0).unwrap() },
@@ -43,6 +43,7 @@ fn full_rig() -> Rig {
             point: Point3::new(0.5, 60.0, 400.0),
             direction: UnitVector3::new_normalize(Vector3::new(0.0, -1.0, -0.1)),
         }),
+        platter_radius_mm: Some(90.0),
     }
 }
 
@@ -54,6 +55,7 @@ fn rig_toml_round_trips() {
     assert_eq!(back.camera, rig.camera);
     assert_eq!(back.lasers, rig.lasers);
     assert_eq!(back.turntable, rig.turntable);
+    assert_eq!(back.platter_radius_mm, Some(90.0));
     let (p, q) = (back.projector.unwrap(), rig.projector.unwrap());
     assert_eq!(p.lens, q.lens);
     // The rotation goes through a matrix in the file: equal to rounding.

@@ -132,7 +132,7 @@ pub fn simulate_board(
         return Err(Error::Setup("no board poses given".into()));
     }
     std::fs::create_dir_all(out).map_err(|e| Error::File(rig::Error::io(out, e)))?;
-    cfg.rig.write(&out.join("rig.toml"))?;
+    crate::scan::scan_rig(cfg).write(&out.join("rig.toml"))?;
     let mut manifest: Manifest = fresh_manifest(Method::Board, opts.seed, &angles, &patterns);
     manifest.write(out)?;
     let lights = lights_for(cfg, &patterns);

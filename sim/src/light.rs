@@ -43,9 +43,10 @@ fn normal_cdf(x: Real) -> Real {
 }
 
 impl PatternLight {
-    /// Tabulates a pattern for a projector of `lens` size with `optics`.
-    pub fn new(pattern: Pattern, lens: &PinholeCamera, optics: &ProjectorConfig) -> Self {
-        let light = |v: Real| optics.black_level + (1.0 - optics.black_level) * v.powf(optics.gamma);
+    /// Tabulates a pattern for a projector of `lens` size with `optics`; `drive` maps the light a pattern
+    /// asks for to the value sent to the projector (the capture program's gamma pre-compensation).
+    pub fn new(pattern: Pattern, lens: &PinholeCamera, optics: &ProjectorConfig, drive: impl Fn(Real) -> Real) -> Self {
+        let light = |v: Real| optics.black_level + (1.0 - optics.black_level) * drive(v).powf(optics.gamma);
         let size = match pattern.axis() {
             Some(Axis::Columns) => lens.width,
             Some(Axis::Rows) => lens.height,
@@ -79,7 +80,9 @@ impl PatternLight {
                 })
                 .collect();
         }
-        PatternLight { pattern, table, start, pixels, white: light(1.0), black: light(0.0) }
+        let white = light(1.0);
+        let black = light(0.0);
+        PatternLight { pattern, table, start, pixels, white, black }
     }
 
     /// The pattern this light is for.
@@ -132,10 +135,10 @@ mod tests {
         let optics = ProjectorConfig { power: 1.0, gamma: 1.0, black_level: 0.0, defocus_px: 1.0 };
         // The most significant column bit: columns 0–31 dark, 32–63 lit; edge at u = 31.5.
         let p = Pattern::Gray { axis: Axis::Columns, bit: 0, bits: 6, inverse: false };
-        let l = PatternLight::new(p, &lens, &optics);
+        let l = PatternLight::new(p, &lens, &optics, |v| v);
         assert!((l.at(31.5, 0.0) - 0.5).abs() < 1e-3);
         assert!(l.at(20.0, 0.0) < 1e-6 && (l.at(45.0, 0.0) - 1.0).abs() < 1e-6);
-        let sharp = PatternLight::new(p, &lens, &ProjectorConfig { defocus_px: 0.0, ..optics });
+        let sharp = PatternLight::new(p, &lens, &ProjectorConfig { defocus_px: 0.0, ..optics }, |v| v);
         assert_eq!((sharp.at(31.49, 0.0), sharp.at(31.51, 0.0)), (0.0, 1.0));
     }
 }

@@ -73,6 +73,15 @@ pub fn program(cfg: &SimConfig, method: Method) -> Result<Vec<Pattern>, Error> {
     Ok(seq)
 }
 
+/// The rig a scan folder records: the config's exact rig, with the platter radius the scene has.
+pub(crate) fn scan_rig(cfg: &SimConfig) -> rig::Rig {
+    let mut r = cfg.rig.clone();
+    if cfg.rig.turntable.is_some() && cfg.scene.platter_radius_mm > 0.0 {
+        r.platter_radius_mm = Some(cfg.scene.platter_radius_mm);
+    }
+    r
+}
+
 /// The camera pose of each view: the turntable's, or the identity for a rig without one.
 pub fn view_pose(cfg: &SimConfig, angle_deg: Real) -> Isometry3 {
     cfg.rig.turntable.map(|t| t.camera_from_object(angle_deg)).unwrap_or_else(Isometry3::identity)
@@ -117,8 +126,12 @@ pub(crate) fn write_view(
 
 /// The pattern lights of a program, tabulated once per scan.
 pub(crate) fn lights_for(cfg: &SimConfig, patterns: &[Pattern]) -> Vec<PatternLight> {
-    let lens = cfg.rig.projector.as_ref().map(|p| p.lens).unwrap_or(cfg.rig.camera);
-    patterns.iter().map(|&pat| PatternLight::new(pat, &lens, &cfg.projector)).collect()
+    match &cfg.rig.projector {
+        Some(p) => {
+            patterns.iter().map(|&pat| PatternLight::new(pat, &p.lens, &cfg.projector, |v| p.drive(v))).collect()
+        }
+        None => patterns.iter().map(|&pat| PatternLight::new(pat, &cfg.rig.camera, &cfg.projector, |v| v)).collect(),
+    }
 }
 
 /// The manifest of a fresh scan: every view incomplete, frame files named by view and pattern.
@@ -184,7 +197,7 @@ pub fn simulate_scan(
             )));
         }
         Err(_) => {
-            cfg.rig.write(&out.join("rig.toml"))?;
+            scan_rig(cfg).write(&out.join("rig.toml"))?;
             if let (Some(m), true) = (object, opts.truth) {
                 mkdir(&out.join("truth"))?;
                 rig::ply::write_mesh(
