@@ -27,6 +27,12 @@ pub enum Command {
     Info(InfoArgs),
     /// Convert a mesh or point cloud between PLY (binary or ASCII) and OBJ.
     Convert(ConvertArgs),
+    /// Process a scan folder: decode, triangulate, place by turntable pose, merge (resumes finished stages).
+    Process(ProcessArgs),
+    /// Decode a folder of structured-light images made by other tools into a projector correspondence map.
+    Decode(DecodeArgs),
+    /// Simulate a 36-view scan of the built-in object and process it: the whole pipeline on a virtual rig.
+    Demo(DemoArgs),
     /// Simulate a scan on a virtual rig: structured-light or laser frames of a mesh on a turntable, with truth.
     Sim(SimArgs),
 }
@@ -148,4 +154,78 @@ fn parse_sweep(s: &str) -> Result<Sweep, String> {
     }
     let n = ((b - a) / step + 1e-9).floor() as usize + 1;
     Ok(Sweep((0..n).map(|k| a + k as f64 * step).collect()))
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StageArg {
+    Decode,
+    Triangulate,
+    Merge,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ProcessArgs {
+    /// The scan folder (with scan.json).
+    pub scan: PathBuf,
+    /// Output folder (default: SCAN/processed).
+    #[arg(long, short)]
+    pub out: Option<PathBuf>,
+    /// Stop after this stage.
+    #[arg(long, value_enum, default_value = "merge")]
+    pub until: StageArg,
+    /// Redo stages whose outputs are already current.
+    #[arg(long)]
+    pub force: bool,
+    /// Keep points within this radius of the turntable axis, mm (default: the rig's platter radius).
+    #[arg(long)]
+    pub crop_radius: Option<f64>,
+    /// Keep points at least this high above the platter, mm.
+    #[arg(long, default_value_t = 1.0)]
+    pub crop_min_height: f64,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameOrder {
+    /// OpenCV GrayCodePattern: column bits (pattern, inverse; MSB first), row bits, then white, black.
+    Opencv,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct DecodeArgs {
+    /// Folder of 8-bit images (PNG), taken in name order.
+    pub dir: PathBuf,
+    /// Projector resolution WxH.
+    #[arg(long, value_parser = parse_size)]
+    pub projector: (u32, u32),
+    /// The order the images were captured in.
+    #[arg(long, value_enum, default_value = "opencv")]
+    pub order: FrameOrder,
+    /// Shadow threshold: white − black below this is not decoded (OpenCV's blackThreshold is 40).
+    #[arg(long, default_value_t = 12.0)]
+    pub shadow_threshold: f64,
+    /// A pixel whose weakest Gray bit has |pattern − inverse| below this is dropped (OpenCV's whiteThreshold is 5).
+    #[arg(long, default_value_t = 1)]
+    pub bit_threshold: u8,
+    /// Output: a NumPy (H, W, 3) array of projector u, v and confidence; a PNG preview is written beside it.
+    #[arg(long, short, default_value = "correspondence.npy")]
+    pub out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct DemoArgs {
+    /// Where the simulated scan and its processed outputs go.
+    #[arg(long, short, default_value = "scanrig-demo")]
+    pub out: PathBuf,
+    /// Simulate the full 1280x1024 camera instead of the quick 640x480 readout.
+    #[arg(long)]
+    pub full_resolution: bool,
+    /// Noise seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Turntable views (36 makes the demo; fewer for a quick look).
+    #[arg(long, default_value_t = 36)]
+    pub views: u32,
 }

@@ -3,7 +3,10 @@
 
 mod cli;
 mod convert;
+mod decode_cmd;
+mod demo;
 mod info;
+mod process_cmd;
 mod sim_cmd;
 
 use clap::Parser;
@@ -15,6 +18,9 @@ fn main() -> ExitCode {
         cli::Command::Info(a) => info::run(&a),
         cli::Command::Convert(a) => convert::run(&a),
         cli::Command::Sim(a) => sim_cmd::run(&a),
+        cli::Command::Process(a) => process_cmd::run(&a),
+        cli::Command::Decode(a) => decode_cmd::run(&a),
+        cli::Command::Demo(a) => demo::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

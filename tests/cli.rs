@@ -40,7 +40,7 @@ fn help_lists_every_subcommand_with_one_line() {
     let o = scanrig(&[&"--help"]);
     assert!(o.status.success());
     let text = stdout(&o);
-    for cmd in ["info", "convert", "sim"] {
+    for cmd in ["info", "convert", "sim", "process", "decode", "demo"] {
         let line =
             text.lines().find(|l| l.trim_start().starts_with(cmd)).unwrap_or_else(|| panic!("{cmd} not in\n{text}"));
         assert!(line.len() > cmd.len() + 10, "{cmd} has no description: {line}");
@@ -177,4 +177,77 @@ fn sim_names_a_bad_config_and_its_field() {
         "{}",
         stderr(&o)
     );
+}
+
+#[test]
+fn decode_reads_simulated_gray_codes_in_opencv_order_back_to_the_truth_projector_map() {
+    let d = Dir::new();
+    let scan = d.path("scan");
+    let o = scanrig(&[&"sim", &"--views", &"1", &"--resolution", &"320x256", &"--noiseless", &"--out", &scan]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Re-file the frames as another tool would have captured them: OpenCV's GrayCodePattern order
+    // (column pairs, row pairs, MSB first), then white and black.
+    let m = rig::Manifest::read(&scan).unwrap();
+    let frames = &m.views[0].frames;
+    let find = |p: rig::Pattern| frames.iter().find(|f| f.pattern == p).unwrap();
+    let mut order: Vec<rig::Pattern> =
+        frames.iter().map(|f| f.pattern).filter(|p| matches!(p, rig::Pattern::Gray { .. })).collect();
+    order.push(rig::Pattern::White);
+    order.push(rig::Pattern::Black);
+    let opencv = d.path("opencv");
+    std::fs::create_dir_all(&opencv).unwrap();
+    for (k, p) in order.iter().enumerate() {
+        std::fs::copy(scan.join(&find(*p).file), opencv.join(format!("pattern_{k:02}.png"))).unwrap();
+    }
+    let out = d.path("map.npy");
+    let o = scanrig(&[&"decode", &opencv, &"--projector", &"1024x768", &"--order", &"opencv", &"--out", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let map = process::ProjectorMap::from_npy(&rig::npy::read(&out).unwrap()).unwrap();
+    let truth = rig::npy::read(&scan.join("truth/view_000/projector.npy")).unwrap().to_f64();
+    let (mut lit, mut decoded, mut exact) = (0, 0, 0);
+    for i in 0..map.u.len() {
+        let (tu, tv) = (truth[2 * i], truth[2 * i + 1]);
+        if tu.is_finite() {
+            lit += 1;
+            // Columns and rows are decoded independently: each decoded one must be exact.
+            if map.u[i].is_finite() {
+                decoded += 1;
+                let row_ok = map.v[i].is_nan() || map.v[i] == (tv + 0.5).floor();
+                exact += usize::from(map.u[i] == (tu + 0.5).floor() && row_ok);
+            }
+        }
+    }
+    // Pixels whose pattern and inverse tie at 8 bits sit on a stripe edge: either column is right, and
+    // the decoder leaves them out. Everything it decodes must be the projector pixel geometry predicts.
+    let (coverage, exactness) = (decoded as f64 / lit as f64, exact as f64 / decoded as f64);
+    eprintln!(
+        "scanrig decode: {decoded} of {lit} lit pixels decoded ({:.2} %), {:.3} % of them exactly",
+        100.0 * coverage,
+        100.0 * exactness
+    );
+    assert!(lit > 10_000 && coverage >= 0.95 && exactness >= 0.999, "coverage {coverage}, exact {exactness}");
+    assert!(d.path("map.png").is_file(), "the preview is written beside the map");
+    // A folder with the wrong number of images says what it expected.
+    std::fs::remove_file(opencv.join("pattern_00.png")).unwrap();
+    let o = scanrig(&[&"decode", &opencv, &"--projector", &"1024x768", &"--out", &out]);
+    assert!(stderr(&o).contains("41 PNG images, but a 1024x768 projector in OpenCV order needs 42"), "{}", stderr(&o));
+}
+
+#[test]
+fn demo_simulates_processes_and_prints_its_outputs() {
+    let d = Dir::new();
+    let out = d.path("demo");
+    let o = scanrig(&[&"demo", &"--views", &"2", &"--out", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    for line in ["merged cloud", "range grids", "depth previews", "report"] {
+        assert!(text.contains(line), "{line} missing from\n{text}");
+    }
+    let merged = rig::read_cloud(&out.join("processed/merged.ply")).unwrap();
+    assert!(merged.len() > 10_000 && merged.normals.is_some() && merged.view_id.is_some());
+    assert!(out.join("processed/preview/view_001_depth.png").is_file());
+    // Processing again reuses every view's outputs.
+    let o = scanrig(&[&"process", &out.join("scan"), &"--out", &out.join("processed"), &"--json"]);
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert!(report["views"].as_array().unwrap().iter().all(|v| v["reused"] == true), "{report}");
 }

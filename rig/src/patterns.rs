@@ -64,14 +64,13 @@ pub fn gray(n: u32) -> u32 {
     n ^ (n >> 1)
 }
 
-/// The integer whose Gray code is `g`.
-pub fn gray_inverse(mut g: u32) -> u32 {
-    let mut n = g;
-    while g > 0 {
-        g >>= 1;
-        n ^= g;
-    }
-    n
+/// The integer whose Gray code is `g`: the prefix XOR of its bits, in five branch-free steps.
+pub fn gray_inverse(g: u32) -> u32 {
+    let mut n = g ^ (g >> 16);
+    n ^= n >> 8;
+    n ^= n >> 4;
+    n ^= n >> 2;
+    n ^ (n >> 1)
 }
 
 /// Bits needed to code `size` columns or rows: `ceil(log2 size)` (OpenCV's `GrayCodePattern` count).
@@ -170,8 +169,10 @@ mod tests {
 
     #[test]
     fn gray_code_round_trips_and_neighbours_differ_in_one_bit() {
-        for n in 0..5000u32 {
+        for n in (0..5000u32).chain([u32::MAX, u32::MAX - 1, 1 << 31, 0x5555_5555]) {
             assert_eq!(gray_inverse(gray(n)), n);
+        }
+        for n in 0..5000u32 {
             assert_eq!((gray(n) ^ gray(n + 1)).count_ones(), 1);
         }
     }

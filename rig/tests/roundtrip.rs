@@ -143,3 +143,54 @@ fn files_on_disk_round_trip_through_the_extension_dispatch() {
     }
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+fn range_grid() -> impl Strategy<Value = rig::RangeGrid> {
+    (1usize..12, 1usize..9).prop_flat_map(|(w, h)| {
+        (
+            prop::collection::vec(prop::option::of(point()), w * h),
+            prop::collection::vec(vector(), w * h),
+            prop::collection::vec(0f32..1.0, w * h),
+            prop::bool::ANY,
+            point(),
+        )
+            .prop_map(move |(cells, normals, confidence, center, sensor)| {
+                let sensor = if center {
+                    rig::Sensor::Center(sensor)
+                } else {
+                    rig::Sensor::Direction(rig::UnitVector3::new_normalize(Vector3::new(0.3, -0.2, 1.0)))
+                };
+                let mut g = rig::RangeGrid::empty(w, h, sensor);
+                for (i, c) in cells.into_iter().enumerate() {
+                    if let Some(p) = c {
+                        g.points[i] = p;
+                        g.valid[i] = true;
+                    }
+                }
+                // Only valid cells are stored: invalid cells read back with zero normal and confidence.
+                g.normals =
+                    Some(normals.iter().zip(&g.valid).map(|(n, &v)| if v { *n } else { Vector3::zeros() }).collect());
+                g.confidence = Some(confidence.iter().zip(&g.valid).map(|(c, &v)| if v { *c } else { 0.0 }).collect());
+                g
+            })
+    })
+}
+
+proptest! {
+    #[test]
+    fn ply_range_grid_round_trip(g in range_grid()) {
+        for encoding in ENCODINGS {
+            let opts = WriteOptions { encoding, precision: Precision::F64, comments: vec![] };
+            let back = ply::range_grid_from_ply(&ply::parse(&ply::range_grid_to_bytes(&g, &opts)).unwrap()).unwrap();
+            prop_assert_eq!((back.width, back.height), (g.width, g.height));
+            prop_assert_eq!(&back.valid, &g.valid);
+            prop_assert_eq!(&back.sensor, &g.sensor);
+            for i in 0..g.valid.len() {
+                if g.valid[i] {
+                    prop_assert_eq!(back.points[i], g.points[i]);
+                }
+            }
+            prop_assert_eq!(&back.normals, &g.normals);
+            prop_assert_eq!(&back.confidence, &g.confidence);
+        }
+    }
+}

@@ -118,8 +118,9 @@ pub fn mesh_from_ply(ply: &PlyFile) -> Result<PolyMesh, ParseError> {
 }
 
 /// A Stanford range scan: the `range_grid` element (one list of 0 or 1 vertex index per cell, row-major
-/// as stored) sized by `obj_info num_cols` and `num_rows`. The Cyberware sensor looks along −z, so the
-/// grid's sensor is `Sensor::Direction(+z)`.
+/// as stored) sized by `obj_info num_cols` and `num_rows`, with normals and confidence where the vertices
+/// have them. The sensor comes from a `comment sensor …` line, else it is the Cyberware's: looking along
+/// −z, so `Sensor::Direction(+z)`.
 pub fn range_grid_from_ply(ply: &PlyFile) -> Result<RangeGrid, ParseError> {
     let v = vertex_element(ply)?;
     let pts = positions(v)?;
@@ -137,13 +138,42 @@ pub fn range_grid_from_ply(ply: &PlyFile) -> Result<RangeGrid, ParseError> {
     }
     let (_, offsets, values) =
         g.first_list().ok_or_else(|| missing("a list property of element `range_grid`".into()))?;
-    let mut grid = RangeGrid::empty(w, h, Sensor::Direction(UnitVector3::new_unchecked(Vector3::z())));
+    // The sensor, where a `comment sensor center|direction x y z` line gives it (scanrig writes one);
+    // otherwise the Cyberware convention of a sensor toward +z.
+    let sensor = ply
+        .header
+        .comments
+        .iter()
+        .find_map(|c| {
+            let w: Vec<&str> = c.split_whitespace().collect();
+            let v = |k: usize| w.get(k).and_then(|s| s.parse::<f64>().ok());
+            match (w.first(), w.get(1)) {
+                (Some(&"sensor"), Some(&"center")) => Some(Sensor::Center(Point3::new(v(2)?, v(3)?, v(4)?))),
+                (Some(&"sensor"), Some(&"direction")) => {
+                    UnitVector3::try_new(Vector3::new(v(2)?, v(3)?, v(4)?), 1e-12).map(Sensor::Direction)
+                }
+                _ => None,
+            }
+        })
+        .unwrap_or(Sensor::Direction(UnitVector3::new_unchecked(Vector3::z())));
+    let mut grid = RangeGrid::empty(w, h, sensor);
+    let vn = normals(v);
+    let vc = v.scalar("confidence");
+    let mut cell_normals = vn.as_ref().map(|_| vec![Vector3::zeros(); w * h]);
+    let mut cell_conf = vc.map(|_| vec![0.0f32; w * h]);
     for cell in 0..g.len() {
         match &values[offsets[cell]..offsets[cell + 1]] {
             [] => {}
             [r] => {
-                grid.points[cell] = pts[index(g, cell, *r, pts.len())? as usize];
+                let k = index(g, cell, *r, pts.len())? as usize;
+                grid.points[cell] = pts[k];
                 grid.valid[cell] = true;
+                if let (Some(dst), Some(src)) = (cell_normals.as_mut(), vn.as_ref()) {
+                    dst[cell] = src[k];
+                }
+                if let (Some(dst), Some(src)) = (cell_conf.as_mut(), vc) {
+                    dst[cell] = src[k] as f32;
+                }
             }
             more => {
                 let msg = format!("a range-grid cell holds {} vertices; at most 1 is allowed", more.len());
@@ -151,5 +181,7 @@ pub fn range_grid_from_ply(ply: &PlyFile) -> Result<RangeGrid, ParseError> {
             }
         }
     }
+    grid.normals = cell_normals;
+    grid.confidence = cell_conf;
     Ok(grid)
 }

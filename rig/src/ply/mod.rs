@@ -21,7 +21,10 @@ mod write;
 
 pub use convert::{cloud_from_ply, mesh_from_ply, range_grid_from_ply};
 pub use header::{ElementDef, Encoding, Header, PropertyDef, PropertyKind, ScalarType};
-pub use write::{Precision, WriteOptions, cloud_to_bytes, mesh_to_bytes, write_cloud, write_mesh};
+pub use write::{
+    Precision, WriteOptions, cloud_to_bytes, mesh_to_bytes, range_grid_to_bytes, write_cloud, write_mesh,
+    write_range_grid,
+};
 
 use crate::error::{Error, ParseError, read_bytes};
 use crate::{PointCloud, PolyMesh, RangeGrid};

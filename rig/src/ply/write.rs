@@ -3,7 +3,7 @@
 use super::header::{Encoding, ScalarType};
 use crate::error::{Error, write_atomic};
 use crate::math::{Point3, Vector3};
-use crate::{PointCloud, PolyMesh};
+use crate::{PointCloud, PolyMesh, RangeGrid, Sensor};
 use std::path::Path;
 
 /// The type of written coordinates and normals.
@@ -213,4 +213,60 @@ pub fn write_cloud(path: &Path, cloud: &PointCloud, opts: &WriteOptions) -> Resu
 /// Writes a polygon mesh atomically (see [`mesh_to_bytes`]).
 pub fn write_mesh(path: &Path, mesh: &PolyMesh, opts: &WriteOptions) -> Result<(), Error> {
     write_atomic(path, &mesh_to_bytes(mesh, opts))
+}
+
+/// A range grid as a Stanford-style range scan: the valid cells as `vertex` (with normals and
+/// `confidence` where the grid has them), `element range_grid` with one list of 0 or 1 vertex index per
+/// cell (row-major), `obj_info num_cols/num_rows`, and the sensor as a `comment sensor …` line that
+/// [`range_grid_from_ply`](super::range_grid_from_ply) reads back.
+pub fn range_grid_to_bytes(grid: &RangeGrid, opts: &WriteOptions) -> Vec<u8> {
+    let t = real(opts);
+    let has_normals = grid.normals.is_some();
+    let mut props = vertex_props(opts, has_normals);
+    if grid.confidence.is_some() {
+        props.push("float confidence".into());
+    }
+    let valid: Vec<usize> = (0..grid.valid.len()).filter(|&i| grid.valid[i]).collect();
+    let mut opts = opts.clone();
+    match &grid.sensor {
+        Sensor::Center(c) => opts.comments.push(format!("sensor center {} {} {}", c.x, c.y, c.z)),
+        Sensor::Direction(d) => opts.comments.push(format!("sensor direction {} {} {}", d.x, d.y, d.z)),
+        Sensor::PerCell(_) => {}
+    }
+    let mut head = header(
+        &opts,
+        &[
+            ("vertex", valid.len(), props),
+            ("range_grid", grid.valid.len(), vec!["list uchar int vertex_indices".into()]),
+        ],
+    );
+    // obj_info lines go before the elements, as in the Stanford files.
+    let info = format!("obj_info num_cols {}\nobj_info num_rows {}\n", grid.width, grid.height);
+    let at = head.windows(8).position(|w| w == b"element ").expect("the header has elements");
+    head.splice(at..at, info.into_bytes());
+    let mut body = Body { out: head, encoding: opts.encoding, first_on_line: true };
+    for &i in &valid {
+        write_point(&mut body, t, &grid.points[i], grid.normals.as_ref().map(|n| &n[i]));
+        if let Some(c) = &grid.confidence {
+            body.value(ScalarType::F32, c[i] as f64);
+        }
+        body.end_entry();
+    }
+    let mut next = 0;
+    for &v in &grid.valid {
+        if v {
+            body.value(ScalarType::U8, 1.0);
+            body.value(ScalarType::I32, next as f64);
+            next += 1;
+        } else {
+            body.value(ScalarType::U8, 0.0);
+        }
+        body.end_entry();
+    }
+    body.out
+}
+
+/// Writes a range grid atomically (see [`range_grid_to_bytes`]).
+pub fn write_range_grid(path: &Path, grid: &RangeGrid, opts: &WriteOptions) -> Result<(), Error> {
+    write_atomic(path, &range_grid_to_bytes(grid, opts))
 }

@@ -1,0 +1,279 @@
+//! `scanrig process`: a scan folder through the stages that exist — decode, triangulate (with grid
+//! normals), place by turntable pose and merge — each stage's output written atomically beside the scan
+//! and skipped when it is already there and newer than its inputs, so an interrupted run resumes.
+//!
+//! Output folder:
+//! ```text
+//! decode/view_NNN.npy          structured light: (H, W, 3) projector u, v, confidence (NaN undecoded)
+//! views/view_NNN.ply           the view's range grid (camera frame, mm; Stanford range_grid layout)
+//! views/view_NNN_laserK.ply    laser scans: one grid per laser
+//! preview/view_NNN_depth.png   colour depth map; preview/view_NNN_projector.png the decoded map
+//! merged.ply                   all views in the object frame, cropped to the platter cylinder, with
+//!                              normals, confidence and view_id per point
+//! report.json                  what every stage did (the `ProcessReport` below)
+//! ```
+
+use crate::Error;
+use crate::grid_normals::estimate_normals;
+use crate::laser_line::{LaserParams, LineReport, detect_line, triangulate_line};
+use crate::placement::{CropParams, merge, place_view};
+use crate::projector_map::ProjectorMap;
+use crate::structured_light::{DecodeParams, DecodeReport, decode_view};
+use crate::triangulate::{TriangulateParams, Triangulator};
+use rayon::prelude::*;
+use rig::image::Image8;
+use rig::math::Real;
+use rig::ply::WriteOptions;
+use rig::scan_folder::{Manifest, Method};
+use rig::{Pattern, RangeGrid, Rig};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The stages, in order; `--until` stops after one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Stage {
+    /// Projector maps (structured light).
+    Decode,
+    /// Per-view range grids with normals.
+    Triangulate,
+    /// Views placed in the object frame, cropped and merged.
+    Merge,
+}
+
+/// Everything `process_scan` can be told.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct ProcessParams {
+    /// Structured-light decoding.
+    pub decode: DecodeParams,
+    /// Triangulation.
+    pub triangulate: TriangulateParams,
+    /// Laser-line extraction.
+    pub laser: LaserParams,
+    /// The object cylinder; a `None` radius takes the rig's platter radius.
+    pub crop: CropParams,
+    /// Grid neighbours farther apart than this (mm) are not used for normals.
+    pub normal_max_jump_mm: Real,
+    /// The last stage to run.
+    pub until: Stage,
+    /// Redo stages whose outputs are current.
+    pub force: bool,
+}
+
+impl Default for ProcessParams {
+    fn default() -> Self {
+        ProcessParams {
+            decode: DecodeParams::default(),
+            triangulate: TriangulateParams::default(),
+            laser: LaserParams::default(),
+            crop: CropParams::default(),
+            normal_max_jump_mm: 2.0,
+            until: Stage::Merge,
+            force: false,
+        }
+    }
+}
+
+/// One view's part of the report.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct ViewReport {
+    /// View index.
+    pub view: usize,
+    /// Turntable angle (degrees).
+    pub angle_deg: Real,
+    /// Structured light: what decoding found.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub decode: Option<DecodeReport>,
+    /// Laser: what line extraction found, per laser.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub lines: Vec<LineReport>,
+    /// Valid cells of the view's range grid(s).
+    pub points: usize,
+    /// Cells with a grid normal.
+    pub normals: usize,
+    /// Points kept in the object cylinder.
+    pub placed: usize,
+    /// Whether the view's outputs were current and reused.
+    pub reused: bool,
+    /// Milliseconds spent on this view.
+    pub milliseconds: Real,
+}
+
+/// What `process_scan` did: the JSON `report.json` holds.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct ProcessReport {
+    /// The scan folder.
+    pub scan: String,
+    /// The capture method.
+    pub method: String,
+    /// Complete views processed.
+    pub views: Vec<ViewReport>,
+    /// Incomplete views left out (a scan still running, or interrupted).
+    pub incomplete_views: Vec<usize>,
+    /// Points in the merged cloud.
+    pub merged_points: usize,
+    /// Files written or reused, relative to the output folder.
+    pub outputs: Vec<String>,
+    /// Seconds in all.
+    pub total_seconds: Real,
+}
+
+/// True when `output` exists and is at least as new as every input.
+fn is_current(output: &Path, inputs: &[PathBuf]) -> bool {
+    let modified = |p: &Path| std::fs::metadata(p).and_then(|m| m.modified()).ok();
+    let Some(out) = modified(output) else { return false };
+    inputs.iter().all(|i| modified(i).is_some_and(|t| t <= out))
+}
+
+fn load_frames(frames: &[(Pattern, PathBuf)]) -> Result<Vec<(Pattern, Image8)>, Error> {
+    let loaded = frames.par_iter().map(|(p, path)| Ok((*p, rig::image::read_png(path)?.to_gray())));
+    loaded.collect::<Result<Vec<_>, rig::Error>>().map_err(Error::File)
+}
+
+fn mkdir(p: &Path) -> Result<(), Error> {
+    std::fs::create_dir_all(p).map_err(|e| Error::File(rig::Error::io(p, e)))
+}
+
+/// Runs the stages on the scan folder `scan`, writing into `out`. `progress(stage, done, total)`.
+pub fn process_scan(
+    scan: &Path,
+    out: &Path,
+    params: &ProcessParams,
+    mut progress: impl FnMut(&str, usize, usize),
+) -> Result<ProcessReport, Error> {
+    let start = Instant::now();
+    let manifest = Manifest::read(scan)?;
+    let rig_path = scan.join(&manifest.rig);
+    let rig = Rig::read(&rig_path)?;
+    for d in ["decode", "views", "preview"] {
+        mkdir(&out.join(d))?;
+    }
+    let mut report = ProcessReport {
+        scan: scan.display().to_string(),
+        method: format!("{:?}", manifest.method),
+        ..Default::default()
+    };
+    let write_opts = WriteOptions::default().with_units("mm");
+    let mut grids: Vec<(usize, Real, RangeGrid)> = Vec::new();
+    let mut triangulator: Option<Triangulator> = None;
+    let complete: Vec<usize> = (0..manifest.views.len()).filter(|&v| manifest.views[v].complete).collect();
+    report.incomplete_views = (0..manifest.views.len()).filter(|v| !complete.contains(v)).collect();
+    for (done, &v) in complete.iter().enumerate() {
+        let t0 = Instant::now();
+        let view = &manifest.views[v];
+        let frames: Vec<(Pattern, PathBuf)> =
+            view.frames.iter().map(|f| (f.pattern, Manifest::frame_path(scan, f))).collect();
+        let mut inputs: Vec<PathBuf> = frames.iter().map(|f| f.1.clone()).collect();
+        inputs.push(rig_path.clone());
+        let mut vr = ViewReport { view: v, angle_deg: view.angle_deg, ..Default::default() };
+        match manifest.method {
+            Method::StructuredLight => {
+                let projector = rig.projector.as_ref().ok_or_else(|| {
+                    Error::Setup(format!(
+                        "{}: a structured-light scan needs a rig with a projector",
+                        rig_path.display()
+                    ))
+                })?;
+                let decode_path = out.join(format!("decode/view_{v:03}.npy"));
+                let grid_path = out.join(format!("views/view_{v:03}.ply"));
+                report.outputs.push(format!("decode/view_{v:03}.npy"));
+                report.outputs.push(format!("views/view_{v:03}.ply"));
+                if !params.force && is_current(&grid_path, &inputs) && (params.until >= Stage::Triangulate) {
+                    let grid = rig::ply::read_range_grid(&grid_path)?;
+                    vr.points = grid.valid_count();
+                    vr.reused = true;
+                    grids.push((v, view.angle_deg, grid));
+                } else {
+                    let map = if !params.force && is_current(&decode_path, &inputs) {
+                        vr.reused = true;
+                        ProjectorMap::from_npy(&rig::npy::read(&decode_path)?)
+                            .ok_or_else(|| Error::Setup(format!("{}: not a projector map", decode_path.display())))?
+                    } else {
+                        let imgs = load_frames(&frames)?;
+                        let refs: Vec<(Pattern, &Image8)> = imgs.iter().map(|(p, i)| (*p, i)).collect();
+                        let (map, dr) = decode_view(&refs, projector.lens.width, projector.lens.height, &params.decode)
+                            .map_err(|source| Error::Decode { view: v, source })?;
+                        vr.decode = Some(dr);
+                        rig::npy::write(&decode_path, &map.to_npy())?;
+                        let preview = map.preview(projector.lens.width, projector.lens.height);
+                        rig::image::write_png(
+                            &out.join(format!("preview/view_{v:03}_projector.png")),
+                            &preview,
+                            false,
+                        )?;
+                        map
+                    };
+                    if params.until >= Stage::Triangulate {
+                        let tri = triangulator.get_or_insert_with(|| Triangulator::new(&rig.camera, projector));
+                        let mut grid = tri.triangulate(&map, &params.triangulate);
+                        vr.normals = estimate_normals(&mut grid, params.normal_max_jump_mm);
+                        vr.points = grid.valid_count();
+                        rig::ply::write_range_grid(&grid_path, &grid, &write_opts)?;
+                        rig::image::write_png(
+                            &out.join(format!("preview/view_{v:03}_depth.png")),
+                            &crate::preview::depth_image(&grid),
+                            false,
+                        )?;
+                        grids.push((v, view.angle_deg, grid));
+                    }
+                }
+            }
+            Method::Laser => {
+                let off = frames
+                    .iter()
+                    .find(|f| f.0 == Pattern::LaserOff)
+                    .ok_or_else(|| Error::Setup(format!("view {v} has no laser-off frame")))?;
+                for (k, laser) in rig.lasers.iter().enumerate() {
+                    let Some(on) = frames.iter().find(|f| f.0 == Pattern::Laser { index: k }) else { continue };
+                    let grid_path = out.join(format!("views/view_{v:03}_laser{k}.ply"));
+                    report.outputs.push(format!("views/view_{v:03}_laser{k}.ply"));
+                    let grid = if !params.force && is_current(&grid_path, &inputs) {
+                        vr.reused = true;
+                        rig::ply::read_range_grid(&grid_path)?
+                    } else {
+                        let imgs = load_frames(&[off.clone(), on.clone()])?;
+                        let (peaks, lr) = detect_line(&imgs[1].1, &imgs[0].1, &params.laser);
+                        vr.lines.push(lr);
+                        let grid = triangulate_line(&peaks, &rig.camera, &laser.plane);
+                        rig::ply::write_range_grid(&grid_path, &grid, &write_opts)?;
+                        grid
+                    };
+                    vr.points += grid.valid_count();
+                    grids.push((v, view.angle_deg, grid));
+                }
+            }
+            Method::Board => {
+                return Err(Error::Setup("a board capture is for `scanrig calibrate`, not `scanrig process`".into()));
+            }
+        }
+        vr.milliseconds = t0.elapsed().as_secs_f64() * 1e3;
+        report.views.push(vr);
+        progress("views", done + 1, complete.len());
+    }
+    if params.until >= Stage::Merge && !grids.is_empty() {
+        let crop = CropParams { radius_mm: params.crop.radius_mm.or(rig.platter_radius_mm), ..params.crop };
+        let placed: Vec<(usize, rig::PointCloud)> = grids
+            .par_iter()
+            .map(|(v, angle, grid)| {
+                let pose = rig.turntable.map(|t| t.object_from_camera(*angle)).unwrap_or_else(rig::Isometry3::identity);
+                (*v, place_view(grid, &pose, &crop, *v as u32))
+            })
+            .collect();
+        for (v, cloud) in &placed {
+            if let Some(r) = report.views.iter_mut().find(|r| r.view == *v) {
+                r.placed += cloud.len();
+            }
+        }
+        let merged = merge(placed.into_iter().map(|p| p.1).collect());
+        report.merged_points = merged.len();
+        rig::ply::write_cloud(&out.join("merged.ply"), &merged, &write_opts)?;
+        report.outputs.push("merged.ply".into());
+        progress("merge", 1, 1);
+    }
+    report.total_seconds = start.elapsed().as_secs_f64();
+    report.outputs.push("report.json".into());
+    let json = serde_json::to_vec_pretty(&report).expect("reports serialise");
+    rig::write_atomic(&out.join("report.json"), &json)?;
+    Ok(report)
+}
