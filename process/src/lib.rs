@@ -15,7 +15,10 @@
 //! - [`placement`]: views into the object frame by turntable pose, cropped to the platter cylinder and
 //!   merged with view ids and confidences.
 //!
-//! Still to come, each in its own issue: non-local denoising (ch. 4, eqs. 4.3–4.6), ICP (ch. 2.2),
+//! - [`denoise`]: per-scan non-local denoising of range grids, static and time-varying (ch. 4,
+//!   eqs. 4.3–4.6), with the bilateral filter in the same framework;
+//!
+//! Still to come, each in its own issue: ICP (ch. 2.2),
 //! mean-shift fusion (ch. 3, eqs. 3.2–3.10), FFT/AdFFT reconstruction (ch. 5) and quad remeshing (ch. 6).
 //!
 //! ```
@@ -26,6 +29,7 @@
 //! ```
 #![deny(missing_docs)]
 
+pub mod denoise;
 pub mod gray_code;
 pub mod grid_normals;
 pub mod laser_line;
