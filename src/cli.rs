@@ -29,6 +29,8 @@ pub enum Command {
     Convert(ConvertArgs),
     /// Process a scan folder: decode, triangulate, place by turntable pose, merge (resumes finished stages).
     Process(ProcessArgs),
+    /// Denoise range grids (PLY with range_grid) by the non-local filter, or the bilateral baseline.
+    Denoise(DenoiseArgs),
     /// Decode a folder of structured-light images made by other tools into a projector correspondence map.
     Decode(DecodeArgs),
     /// Simulate a 36-view scan of the built-in object and process it: the whole pipeline on a virtual rig.
@@ -160,6 +162,7 @@ fn parse_sweep(s: &str) -> Result<Sweep, String> {
 pub enum StageArg {
     Decode,
     Triangulate,
+    Denoise,
     Merge,
 }
 
@@ -176,6 +179,9 @@ pub struct ProcessArgs {
     /// Redo stages whose outputs are already current.
     #[arg(long)]
     pub force: bool,
+    /// Skip the denoising stage.
+    #[arg(long)]
+    pub no_denoise: bool,
     /// Keep points within this radius of the turntable axis, mm (default: the rig's platter radius).
     #[arg(long)]
     pub crop_radius: Option<f64>,
@@ -228,4 +234,55 @@ pub struct DemoArgs {
     /// Turntable views (36 makes the demo; fewer for a quick look).
     #[arg(long, default_value_t = 36)]
     pub views: u32,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FilterArg {
+    /// Non-local: patch similarity (thesis ch. 4).
+    NonLocal,
+    /// Bilateral: the point pair's similarity only.
+    Bilateral,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DirectionArg {
+    /// Along least-squares normals (additive noise).
+    Normal,
+    /// Along the line of sight (view-dependent noise: structured light, lasers).
+    Sight,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct DenoiseArgs {
+    /// Range grids: PLY files with a range_grid element (scanrig's views, Stanford scans). Several files
+    /// with --temporal form a sequence, in the order given.
+    #[arg(required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// Output file (one input) or folder (several); written atomically.
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// The filter.
+    #[arg(long, value_enum, default_value = "non-local")]
+    pub filter: FilterArg,
+    /// Displacement direction.
+    #[arg(long, value_enum, default_value = "normal")]
+    pub direction: DirectionArg,
+    /// Neighbourhood N size (odd: 7 means 7x7).
+    #[arg(long, default_value_t = 7)]
+    pub window: usize,
+    /// Similarity patch O size (odd: 5 means 5x5).
+    #[arg(long, default_value_t = 5)]
+    pub patch: usize,
+    /// Filter passes.
+    #[arg(long, default_value_t = 1)]
+    pub iterations: usize,
+    /// Keep N the same size near holes and borders.
+    #[arg(long)]
+    pub no_adaptive: bool,
+    /// Sequences: use this many frames before and after each frame (eq. 4.6).
+    #[arg(long, default_value_t = 0)]
+    pub temporal: usize,
+    /// Print the reports as JSON.
+    #[arg(long)]
+    pub json: bool,
 }

@@ -5,6 +5,7 @@ mod cli;
 mod convert;
 mod decode_cmd;
 mod demo;
+mod denoise_cmd;
 mod info;
 mod process_cmd;
 mod sim_cmd;
@@ -20,6 +21,7 @@ fn main() -> ExitCode {
         cli::Command::Sim(a) => sim_cmd::run(&a),
         cli::Command::Process(a) => process_cmd::run(&a),
         cli::Command::Decode(a) => decode_cmd::run(&a),
+        cli::Command::Denoise(a) => denoise_cmd::run(&a),
         cli::Command::Demo(a) => demo::run(&a),
     };
     match result {

@@ -12,8 +12,10 @@ pub fn params(args: &ProcessArgs) -> ProcessParams {
         until: match args.until {
             StageArg::Decode => Stage::Decode,
             StageArg::Triangulate => Stage::Triangulate,
+            StageArg::Denoise => Stage::Denoise,
             StageArg::Merge => Stage::Merge,
         },
+        denoise: if args.no_denoise { None } else { defaults.denoise },
         force: args.force,
         crop: process::placement::CropParams {
             radius_mm: args.crop_radius,

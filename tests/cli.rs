@@ -40,7 +40,7 @@ fn help_lists_every_subcommand_with_one_line() {
     let o = scanrig(&[&"--help"]);
     assert!(o.status.success());
     let text = stdout(&o);
-    for cmd in ["info", "convert", "sim", "process", "decode", "demo"] {
+    for cmd in ["info", "convert", "sim", "process", "denoise", "decode", "demo"] {
         let line =
             text.lines().find(|l| l.trim_start().starts_with(cmd)).unwrap_or_else(|| panic!("{cmd} not in\n{text}"));
         assert!(line.len() > cmd.len() + 10, "{cmd} has no description: {line}");
@@ -250,4 +250,52 @@ fn demo_simulates_processes_and_prints_its_outputs() {
     let o = scanrig(&[&"process", &out.join("scan"), &"--out", &out.join("processed"), &"--json"]);
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(report["views"].as_array().unwrap().iter().all(|v| v["reused"] == true), "{report}");
+}
+
+/// A noisy 60 × 40 range grid of the plane z = 500 mm (seeded).
+fn noisy_plane(seed: u64) -> rig::RangeGrid {
+    let mut g = rig::RangeGrid::empty(60, 40, rig::Sensor::Center(rig::Point3::origin()));
+    let mut s = seed;
+    for i in 0..60 * 40 {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let noise = ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.8;
+        g.points[i] = rig::Point3::new((i % 60) as f64 * 0.5, (i / 60) as f64 * 0.5, 500.0 + noise);
+        g.valid[i] = i % 37 != 5;
+    }
+    g
+}
+
+fn plane_rms(g: &rig::RangeGrid) -> f64 {
+    let d: Vec<f64> = (0..g.points.len()).filter(|&i| g.valid[i]).map(|i| (g.points[i].z - 500.0).powi(2)).collect();
+    (d.iter().sum::<f64>() / d.len() as f64).sqrt()
+}
+
+#[test]
+fn denoise_smooths_range_grids_singly_and_as_a_sequence() {
+    let d = Dir::new();
+    let opts = rig::ply::WriteOptions::default().with_units("mm");
+    let inputs: Vec<PathBuf> = (0..3)
+        .map(|k| {
+            let p = d.path(&format!("frame{k}.ply"));
+            rig::ply::write_range_grid(&p, &noisy_plane(k + 1), &opts).unwrap();
+            p
+        })
+        .collect();
+    let out = d.path("clean.ply");
+    let o = scanrig(&[&"denoise", &inputs[0], &"-o", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (raw, clean) = (rig::ply::read_range_grid(&inputs[0]).unwrap(), rig::ply::read_range_grid(&out).unwrap());
+    assert_eq!((clean.width, clean.height, clean.valid.clone()), (60, 40, raw.valid.clone()));
+    assert!(plane_rms(&clean) < 0.5 * plane_rms(&raw), "{} vs {}", plane_rms(&clean), plane_rms(&raw));
+    assert_eq!(rig::ply::read_header(&out).unwrap().units().as_deref(), Some("mm"));
+    // A sequence: each frame filtered with its neighbours, written into a folder under its own name.
+    let folder = d.path("seq");
+    let o = scanrig(&[&"denoise", &inputs[0], &inputs[1], &inputs[2], &"--temporal", &"1", &"-o", &folder, &"--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let reports: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(reports.as_array().unwrap().len(), 3);
+    assert!(folder.join("frame2.ply").is_file());
+    // Bad sizes are refused with the reason.
+    let o = scanrig(&[&"denoise", &inputs[0], &"--window", &"4", &"-o", &out]);
+    assert!(stderr(&o).contains("--window must be an odd size of at least 3"), "{}", stderr(&o));
 }

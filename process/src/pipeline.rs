@@ -7,6 +7,7 @@
 //! decode/view_NNN.npy          structured light: (H, W, 3) projector u, v, confidence (NaN undecoded)
 //! views/view_NNN.ply           the view's range grid (camera frame, mm; Stanford range_grid layout)
 //! views/view_NNN_laserK.ply    laser scans: one grid per laser
+//! denoised/view_NNN.ply        the range grid after non-local denoising (structured light)
 //! preview/view_NNN_depth.png   colour depth map; preview/view_NNN_projector.png the decoded map
 //! merged.ply                   all views in the object frame, cropped to the platter cylinder, with
 //!                              normals, confidence and view_id per point
@@ -38,6 +39,8 @@ pub enum Stage {
     Decode,
     /// Per-view range grids with normals.
     Triangulate,
+    /// Non-local denoising of each structured-light range grid (ch. 4).
+    Denoise,
     /// Views placed in the object frame, cropped and merged.
     Merge,
 }
@@ -53,6 +56,8 @@ pub struct ProcessParams {
     pub laser: LaserParams,
     /// The object cylinder; a `None` radius takes the rig's platter radius.
     pub crop: CropParams,
+    /// Per-view denoising of structured-light grids; `None` skips the stage.
+    pub denoise: Option<crate::denoise::DenoiseParams>,
     /// Grid neighbours farther apart than this (mm) are not used for normals.
     pub normal_max_jump_mm: Real,
     /// The last stage to run.
@@ -68,6 +73,7 @@ impl Default for ProcessParams {
             triangulate: TriangulateParams::default(),
             laser: LaserParams::default(),
             crop: CropParams::default(),
+            denoise: Some(crate::denoise::DenoiseParams::default()),
             normal_max_jump_mm: 2.0,
             until: Stage::Merge,
             force: false,
@@ -92,6 +98,9 @@ pub struct ViewReport {
     pub points: usize,
     /// Cells with a grid normal.
     pub normals: usize,
+    /// What denoising did, where it ran.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub denoise: Option<crate::denoise::DenoiseReport>,
     /// Points kept in the object cylinder.
     pub placed: usize,
     /// Whether the view's outputs were current and reused.
@@ -146,7 +155,7 @@ pub fn process_scan(
     let manifest = Manifest::read(scan)?;
     let rig_path = scan.join(&manifest.rig);
     let rig = Rig::read(&rig_path)?;
-    for d in ["decode", "views", "preview"] {
+    for d in ["decode", "views", "denoised", "preview"] {
         mkdir(&out.join(d))?;
     }
     let mut report = ProcessReport {
@@ -246,6 +255,24 @@ pub fn process_scan(
             Method::Board => {
                 return Err(Error::Setup("a board capture is for `scanrig calibrate`, not `scanrig process`".into()));
             }
+        }
+        if let (Method::StructuredLight, Some(dp), true) =
+            (manifest.method, &params.denoise, params.until >= Stage::Denoise)
+            && let Some((_, _, grid)) = grids.last_mut().filter(|g| g.0 == v)
+        {
+            let path = out.join(format!("denoised/view_{v:03}.ply"));
+            report.outputs.push(format!("denoised/view_{v:03}.ply"));
+            let grid_path = out.join(format!("views/view_{v:03}.ply"));
+            *grid = if !params.force && is_current(&path, &[grid_path]) {
+                rig::ply::read_range_grid(&path)?
+            } else {
+                let (mut clean, dr) =
+                    crate::denoise::denoise(grid, dp).map_err(|e| Error::Setup(format!("view {v}: {e}")))?;
+                estimate_normals(&mut clean, params.normal_max_jump_mm);
+                rig::ply::write_range_grid(&path, &clean, &write_opts)?;
+                vr.denoise = Some(dr);
+                clean
+            };
         }
         vr.milliseconds = t0.elapsed().as_secs_f64() * 1e3;
         report.views.push(vr);
