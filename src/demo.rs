@@ -47,6 +47,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         processed.join("views").display(),
         report.views.len()
     );
+    println!("  denoised grids     {}  (non-local filter, thesis ch. 4)", processed.join("denoised").display());
     println!("  depth previews     {}", processed.join("preview").display());
     println!(
         "  merged cloud       {}  ({} points, object frame, mm)",
