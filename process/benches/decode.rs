@@ -52,6 +52,14 @@ fn main() {
 
     let params = DecodeParams::default();
     let tri = Triangulator::new(&cfg.rig.camera, &projector);
+    // For profilers: `SCANRIG_PROFILE=1` repeats only decode + triangulate.
+    if std::env::var_os("SCANRIG_PROFILE").is_some() {
+        for _ in 0..60 {
+            let (map, _) = decode_view(&refs, projector.lens.width, projector.lens.height, &params).unwrap();
+            std::hint::black_box(tri.triangulate(&map, &TriangulateParams::default()));
+        }
+        return;
+    }
     let (map, report) = decode_view(&refs, projector.lens.width, projector.lens.height, &params).unwrap();
     let decode = median_ms(15, || {
         std::hint::black_box(decode_view(&refs, projector.lens.width, projector.lens.height, &params).unwrap());
@@ -64,6 +72,10 @@ fn main() {
     let accumulate = median_ms(15, || {
         std::hint::black_box(decode_view(&refs, projector.lens.width, projector.lens.height, &dark).unwrap());
     });
+    let empty = median_ms(15, || {
+        std::hint::black_box(rig::RangeGrid::empty(1280, 1024, rig::Sensor::Center(rig::Point3::origin())));
+    });
+    println!("(allocating an empty 1280x1024 range grid: {empty:.1} ms)");
     println!("(decode with every pixel in shadow: {accumulate:.1} ms — the accumulation passes alone)");
     let read = median_ms(15, || {
         let s: u64 = frames
