@@ -76,6 +76,11 @@ fn main() {
     let tv = median_s(5, || {
         std::hint::black_box(denoise_sequence(&grids, 1, 1, &p).unwrap());
     });
+    let (_, r) = denoise(&grids[1], &p).unwrap();
+    println!(
+        "  one run: directions {:.3} s, bandwidths {:.3} s, weighted average {:.3} s",
+        r.seconds_directions, r.seconds_bandwidth, r.seconds_filter
+    );
     println!("non-local N7 O5: {:.3} s/grid = {:.1} grids/s", nl, 1.0 / nl);
     println!("bilateral N7:    {:.3} s/grid = {:.1} grids/s", bl, 1.0 / bl);
     println!("non-local ±1 frame: {:.3} s/grid = {:.1} grids/s", tv, 1.0 / tv);

@@ -68,17 +68,18 @@ fn filter_pass(
     let jobs: Vec<(usize, isize, isize)> =
         (0..frames.len()).flat_map(|k| (-r..=r).flat_map(move |dr| (-r..=r).map(move |dc| (k, dc, dr)))).collect();
     // Parallel over (frame, offset): each job adds its pairs' weights into per-thread sums.
-    let (num, den) = jobs
+    let (num, den, _) = jobs
         .par_iter()
         .fold(
-            || (vec![0.0; n], vec![0.0; n]),
-            |(mut num, mut den), &(k, dc, dr)| {
+            || (vec![0.0; n], vec![0.0; n], PairTable::default()),
+            |(mut num, mut den, mut table), &(k, dc, dr)| {
                 let f = &frames[k];
-                let table = match params.similarity {
-                    Similarity::NonLocal { .. } => Some(PairTable::build(current, f.grid, dc, dr)),
-                    Similarity::Bilateral => None,
-                };
+                let non_local = matches!(params.similarity, Similarity::NonLocal { .. });
+                if non_local {
+                    table.fill(current, f.grid, dc, dr);
+                }
                 let reach = dc.unsigned_abs().max(dr.unsigned_abs());
+                let (inv_d2, inv_s2) = (1.0 / (f.d * f.d), 1.0 / (f.s * f.s));
                 for row in 0..h {
                     let jr = row as isize + dr;
                     if !(0..h as isize).contains(&jr) {
@@ -97,32 +98,30 @@ fn filter_pass(
                         }
                         let diff = current.points[i] - f.grid.points[j];
                         let height = diff.dot(&d);
-                        let phi_d = (-diff.norm_squared() / (f.d * f.d)).exp();
                         // Eq. 4.4 writes Φ_s = exp(−Sim²/s²) with eq. 4.5's Sim a mean of squared heights;
                         // as in NL-means (eq. 4.2) that is exp(−Sim/s²), the squared patch distance over s².
-                        let sim = match (&table, params.similarity) {
-                            (Some(t), Similarity::NonLocal { half }) => {
-                                match similarity(&t.patch(col, row, half), &d) {
-                                    Some(s) => s,
-                                    None => continue,
-                                }
-                            }
-                            _ => height * height,
+                        let sim = match params.similarity {
+                            Similarity::NonLocal { half } => match similarity(&table.patch(col, row, half), &d) {
+                                Some(s) => s,
+                                None => continue,
+                            },
+                            Similarity::Bilateral => height * height,
                         };
-                        let wgt = f.psi * phi_d * (-sim / (f.s * f.s)).exp();
+                        // Φ_d·Φ_s as one exponential.
+                        let wgt = f.psi * (-(diff.norm_squared() * inv_d2 + sim * inv_s2)).exp();
                         num[i] += wgt * height;
                         den[i] += wgt;
                     }
                 }
-                (num, den)
+                (num, den, table)
             },
         )
         .reduce(
-            || (vec![0.0; n], vec![0.0; n]),
-            |(mut a, mut b), (c, d)| {
+            || (vec![0.0; n], vec![0.0; n], PairTable::default()),
+            |(mut a, mut b, t), (c, d, _)| {
                 a.iter_mut().zip(&c).for_each(|(x, y)| *x += y);
                 b.iter_mut().zip(&d).for_each(|(x, y)| *x += y);
-                (a, b)
+                (a, b, t)
             },
         );
     (0..n)
@@ -186,10 +185,14 @@ pub fn denoise_sequence(
         })
         .collect();
     for pass in 0..params.iterations.max(1) {
+        let t = Instant::now();
         let dirs = directions(&out, params.direction, params.normal_window);
+        report.seconds_directions += t.elapsed().as_secs_f64();
+        let t = Instant::now();
         let own = params
             .bandwidth
             .unwrap_or_else(|| estimate(&out, &dirs, params.window, BANDWIDTH_SAMPLES, params.seed ^ pass as u64));
+        report.seconds_bandwidth += t.elapsed().as_secs_f64();
         let bw: Vec<(Real, Real)> = other_bw.iter().map(|b| b.unwrap_or(own)).collect();
         let s_max = bw.iter().map(|b| b.1).fold(0.0, Real::max);
         let terms: Vec<FrameTerm<'_>> = span
@@ -202,7 +205,9 @@ pub fn denoise_sequence(
                 psi: 0.5f64.powi((k as i32 - current as i32).abs()) * (-(s * s) / (s_max * s_max)).exp(),
             })
             .collect();
+        let t = Instant::now();
         let moved = filter_pass(&out, &terms, &dirs, params);
+        report.seconds_filter += t.elapsed().as_secs_f64();
         let sq: Real = moved
             .iter()
             .zip(&out.points)

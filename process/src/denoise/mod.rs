@@ -92,6 +92,12 @@ pub struct DenoiseReport {
     pub s_mm: Vec<Real>,
     /// RMS displacement of each pass (mm).
     pub rms_displacement_mm: Vec<Real>,
+    /// Seconds spent on displacement directions (normals), over all passes.
+    pub seconds_directions: Real,
+    /// Seconds spent estimating bandwidths.
+    pub seconds_bandwidth: Real,
+    /// Seconds spent in the weighted averages (eqs. 4.3 / 4.6).
+    pub seconds_filter: Real,
     /// Seconds in all.
     pub seconds: Real,
 }

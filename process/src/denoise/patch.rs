@@ -12,6 +12,7 @@ use rig::math::{Real, Vector3};
 type Cell = [Real; 7];
 
 /// The summed-area table of one offset δ = (dc, dr) between `current` and `other`.
+#[derive(Default)]
 pub struct PairTable {
     w: usize,
     h: usize,
@@ -21,9 +22,20 @@ pub struct PairTable {
 impl PairTable {
     /// Builds the table for the pairs (x in `current`, x + δ in `other`), both valid.
     pub fn build(current: &RangeGrid, other: &RangeGrid, dc: isize, dr: isize) -> Self {
+        let mut t = PairTable::default();
+        t.fill(current, other, dc, dr);
+        t
+    }
+
+    /// Refills the table for another offset, reusing its memory.
+    pub fn fill(&mut self, current: &RangeGrid, other: &RangeGrid, dc: isize, dr: isize) {
         let (w, h) = (current.width, current.height);
         let stride = w + 1;
-        let mut sums = vec![[0.0; 7]; stride * (h + 1)];
+        self.w = w;
+        self.h = h;
+        self.sums.clear();
+        self.sums.resize(stride * (h + 1), [0.0; 7]);
+        let sums = &mut self.sums;
         for r in 0..h {
             let mut row = [0.0; 7];
             let (rr, inside_r) = (r as isize + dr, (0..h as isize).contains(&(r as isize + dr)));
@@ -47,7 +59,6 @@ impl PairTable {
                 }
             }
         }
-        PairTable { w, h, sums }
     }
 
     /// The box sum over the `(2·half + 1)²` patch centred on (c, r), clipped to the grid.
