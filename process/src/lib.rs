@@ -18,7 +18,10 @@
 //! - [`denoise`]: per-scan non-local denoising of range grids, static and time-varying (ch. 4,
 //!   eqs. 4.3–4.6), with the bilateral filter in the same framework;
 //!
-//! Still to come, each in its own issue: ICP (ch. 2.2),
+//! - [`icp`]: robust point-to-plane ICP (ch. 2.2) with a shrinking correspondence distance, Tukey
+//!   weights and boundary and normal rejection; [`normals`]: PCA normals over k-d-tree neighbours;
+//!
+//! Still to come, each in its own issue: multi-view registration,
 //! mean-shift fusion (ch. 3, eqs. 3.2–3.10), FFT/AdFFT reconstruction (ch. 5) and quad remeshing (ch. 6).
 //!
 //! ```
@@ -32,7 +35,9 @@
 pub mod denoise;
 pub mod gray_code;
 pub mod grid_normals;
+pub mod icp;
 pub mod laser_line;
+pub mod normals;
 pub mod phase_shift;
 pub mod pipeline;
 pub mod placement;

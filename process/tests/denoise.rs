@@ -327,23 +327,11 @@ impl SurfaceDistance {
     }
 }
 
-/// bun.conf: scan name → (t, q) with p_aligned = R(q)ᵀ·p + t (the data README's convention).
-fn bun_conf(path: &Path) -> std::collections::HashMap<String, (Vector3, rig::math::UnitQuaternion)> {
-    std::fs::read_to_string(path)
-        .unwrap()
-        .lines()
-        .filter_map(|l| {
-            let w: Vec<&str> = l.split_whitespace().collect();
-            (w.first() == Some(&"bmesh")).then(|| {
-                let v: Vec<Real> = w[2..9].iter().map(|s| s.parse().unwrap()).collect();
-                let q = nalgebra::Quaternion::new(v[6], v[3], v[4], v[5]);
-                (
-                    w[1].trim_end_matches(".ply").to_string(),
-                    (Vector3::new(v[0], v[1], v[2]), rig::math::UnitQuaternion::from_quaternion(q)),
-                )
-            })
-        })
-        .collect()
+/// bun_zipper.ply in millimetres (the file is in metres).
+fn zipper_mm(path: &Path) -> TriMesh {
+    let mut m = rig::read_mesh(path).unwrap().triangulate();
+    m.vertices.iter_mut().for_each(|v| *v *= 1000.0);
+    m
 }
 
 fn median_rms(mut d: Vec<Real>) -> (Real, Real) {
@@ -357,14 +345,12 @@ fn median_rms(mut d: Vec<Real>) -> (Real, Real) {
 #[test]
 #[ignore]
 fn bunny_sweep() {
-    let (Some(zipper), Some(conf)) = (
-        fixtures::data_file("stanford-bunny/reconstruction/bun_zipper.ply"),
-        fixtures::data_file("stanford-bunny/data/bun.conf"),
-    ) else {
+    let (Some(zipper), Some(poses)) =
+        (fixtures::data_file("stanford-bunny/reconstruction/bun_zipper.ply"), fixtures::bunny_poses_mm())
+    else {
         return;
     };
-    let surface = SurfaceDistance::new(&rig::read_mesh(&zipper).unwrap().triangulate(), 0.0015);
-    let poses = bun_conf(&conf);
+    let surface = SurfaceDistance::new(&zipper_mm(&zipper), 1.5);
     let grids: Vec<_> = fixtures::BUNNY_SCANS
         .iter()
         .map(|n| rig::ply::read_range_grid(&fixtures::bunny_scan(n).unwrap()).unwrap())
@@ -387,9 +373,9 @@ fn bunny_sweep() {
         let mut d = Vec::new();
         for (k, name) in fixtures::BUNNY_SCANS.iter().enumerate() {
             let (clean, _) = denoise(&grids[k], &p).unwrap();
-            let (t, q) = poses[*name];
+            let pose = poses[*name];
             for i in (0..clean.points.len()).filter(|&i| clean.valid[i]) {
-                d.push(surface.distance(&Point3::from(q.inverse() * clean.points[i].coords + t)) * 1000.0);
+                d.push(surface.distance(&(pose * (clean.points[i] * 1000.0))));
             }
         }
         let (m, r) = median_rms(d);
@@ -400,19 +386,17 @@ fn bunny_sweep() {
 #[test]
 fn stanford_bunny_scans_move_toward_the_zippered_surface() {
     let Some(zipper) = fixtures::data_file("stanford-bunny/reconstruction/bun_zipper.ply") else { return };
-    let Some(conf) = fixtures::data_file("stanford-bunny/data/bun.conf") else { return };
-    let surface = SurfaceDistance::new(&rig::read_mesh(&zipper).unwrap().triangulate(), 0.0015);
-    let poses = bun_conf(&conf);
+    let Some(poses) = fixtures::bunny_poses_mm() else { return };
+    let surface = SurfaceDistance::new(&zipper_mm(&zipper), 1.5);
     let (mut raw, mut filtered) = (Vec::new(), Vec::new());
     for name in fixtures::BUNNY_SCANS {
         let Some(path) = fixtures::bunny_scan(name) else { return };
         let grid = rig::ply::read_range_grid(&path).unwrap();
         let (clean, _) = denoise(&grid, &DenoiseParams::default()).unwrap();
-        let (t, q) = poses[name];
-        let align = |p: &Point3| Point3::from(q.inverse() * p.coords + t);
+        let pose = poses[name];
         for i in (0..grid.points.len()).filter(|&i| grid.valid[i]) {
-            raw.push(surface.distance(&align(&grid.points[i])) * 1000.0);
-            filtered.push(surface.distance(&align(&clean.points[i])) * 1000.0);
+            raw.push(surface.distance(&(pose * (grid.points[i] * 1000.0))));
+            filtered.push(surface.distance(&(pose * (clean.points[i] * 1000.0))));
         }
     }
     let (n, (rm, rr), (fm, fr)) = (raw.len(), median_rms(raw), median_rms(filtered));

@@ -1,0 +1,118 @@
+//! ICP on the real Stanford bunny scans (issue 8's acceptance 1): from `bun.conf` poses perturbed by
+//! 5–15° about the moving scan's centroid and 5–10 mm, 100 seeded trials per pair.
+
+use process::icp::{IcpParams, IcpTarget, icp};
+use process::normals::{PointTree, pca_normals};
+use rig::math::{Isometry3, Point3, Real, Translation3, UnitQuaternion, Vector3};
+use std::collections::HashMap;
+
+/// A scan in millimetres, in its own frame, with normals toward its sensor (+z) and boundary flags.
+struct Scan {
+    points: Vec<Point3>,
+    normals: Vec<Vector3>,
+    boundary: Vec<bool>,
+}
+
+fn load(name: &str) -> Option<Scan> {
+    let (points, boundary) = fixtures::bunny_scan_mm(name)?;
+    let normals = pca_normals(&points, &PointTree::new(&points), 10, |_| Vector3::z());
+    Some(Scan { points, normals, boundary })
+}
+
+/// xorshift, seeded per trial.
+struct Rng(u64);
+impl Rng {
+    fn uniform(&mut self) -> Real {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as Real / (1u64 << 53) as Real
+    }
+    fn direction(&mut self) -> Vector3 {
+        loop {
+            let v = Vector3::new(self.uniform() - 0.5, self.uniform() - 0.5, self.uniform() - 0.5);
+            if v.norm() > 0.05 && v.norm() <= 0.5 {
+                return v.normalize();
+            }
+        }
+    }
+}
+
+/// Median nearest-neighbour distance over moving points within 2 mm of the target (the data README's
+/// pairwise statistic).
+fn median_nn(moving: &[Point3], pose: &Isometry3, target: &PointTree) -> Real {
+    let mut d: Vec<Real> = moving.iter().map(|p| target.nearest(&(pose * p)).1.sqrt()).filter(|&d| d <= 2.0).collect();
+    d.sort_by(Real::total_cmp);
+    d[d.len() / 2]
+}
+
+#[test]
+fn bunny_pairs_register_from_perturbed_poses() {
+    let Some(poses) = fixtures::bunny_poses_mm() else { return };
+    // (moving, fixed, the README's median NN distance after alignment, mm)
+    let pairs = [
+        ("bun045", "bun000", 0.315),
+        ("bun315", "bun000", 0.344),
+        ("bun090", "bun045", 0.331),
+        ("bun180", "bun090", 0.488),
+        ("bun270", "bun180", 0.458),
+        ("bun315", "bun270", 0.347),
+    ];
+    let trials = 100;
+    let params = IcpParams::default();
+    let mut scans: HashMap<&str, Scan> = HashMap::new();
+    for name in ["bun000", "bun045", "bun090", "bun180", "bun270", "bun315"] {
+        let Some(s) = load(name) else { return };
+        scans.insert(name, s);
+    }
+    let mut failures = Vec::new();
+    for (moving_name, fixed_name, readme_median) in pairs {
+        let (m, f) = (&scans[moving_name], &scans[fixed_name]);
+        let (pm, pf) = (poses[moving_name], poses[fixed_name]);
+        let fixed_aligned: Vec<Point3> = f.points.iter().map(|p| pf * p).collect();
+        let fixed_tree = PointTree::new(&fixed_aligned);
+        let target = IcpTarget::new(
+            fixed_aligned.clone(),
+            f.normals.iter().map(|n| pf.rotation * n).collect(),
+            Some(f.boundary.clone()),
+        );
+        let centroid = m.points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / m.points.len() as Real;
+        let c_true = pm * Point3::from(centroid);
+        let (mut ok, mut stat, mut iterations) = (0, None, 0);
+        let start = std::time::Instant::now();
+        for trial in 0..trials {
+            let mut rng = Rng(0x5eed_0000 + trial as u64 * 7919 + moving_name.len() as u64);
+            let angle = (5.0 + 10.0 * rng.uniform()).to_radians();
+            let rot = UnitQuaternion::from_scaled_axis(rng.direction() * angle);
+            let shift = rng.direction() * (5.0 + 5.0 * rng.uniform());
+            // Rotate about the aligned centroid, then shift: the perturbed start.
+            let perturb = Isometry3::from_parts(Translation3::from(c_true.coords + shift), rot)
+                * Translation3::from(-c_true.coords);
+            let initial = perturb * pm;
+            let result = icp(&m.points, &m.normals, &target, &initial, &params);
+            let Ok((est, report)) = result else { continue };
+            iterations += report.iterations;
+            let rot_err = (est.rotation.inverse() * pm.rotation).angle().to_degrees();
+            let shift_err = (est * Point3::from(centroid) - c_true).norm();
+            if rot_err < 1.0 && shift_err < 1.0 {
+                ok += 1;
+                if stat.is_none() {
+                    stat = Some(median_nn(&m.points, &est, &fixed_tree));
+                }
+            }
+        }
+        let rate = ok as Real / trials as Real;
+        let stat = stat.unwrap_or(Real::NAN);
+        eprintln!(
+            "{moving_name} → {fixed_name}: {ok}/{trials} succeed ({:.1} ms, {:.0} iterations each); median NN after {stat:.3} mm vs README {readme_median} ({:.2}×)",
+            start.elapsed().as_secs_f64() * 1e3 / trials as Real,
+            iterations as Real / trials as Real,
+            stat / readme_median
+        );
+        if rate < 0.95 || stat.is_nan() || stat > 1.1 * readme_median {
+            failures
+                .push(format!("{moving_name} → {fixed_name}: {rate:.2} success, NN ratio {:.2}", stat / readme_median));
+        }
+    }
+    assert!(failures.is_empty(), "{failures:?}");
+}
