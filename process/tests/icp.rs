@@ -116,3 +116,57 @@ fn bunny_pairs_register_from_perturbed_poses() {
     }
     assert!(failures.is_empty(), "{failures:?}");
 }
+
+#[test]
+fn all_ten_bunny_scans_refine_to_bun_conf_from_perturbed_starts() {
+    let Some(poses) = fixtures::bunny_poses_mm() else { return };
+    let mut views = Vec::new();
+    for name in fixtures::BUNNY_SCANS {
+        let Some(s) = load(name) else { return };
+        views.push(process::multiview::View { points: s.points, normals: s.normals, boundary: s.boundary });
+    }
+    let truth: Vec<Isometry3> = fixtures::BUNNY_SCANS.iter().map(|n| poses[*n]).collect();
+    for seed in [0xb0b0_2026u64, 17, 4242] {
+        refine_from(&views, &truth, seed);
+    }
+}
+
+fn refine_from(views: &[process::multiview::View], truth: &[Isometry3], seed: u64) {
+    let mut rng = Rng(seed);
+    // bun000 is the anchor (bun.conf's identity); every other scan starts 5–15° and 5–10 mm off.
+    let initial: Vec<Isometry3> = truth
+        .iter()
+        .zip(views)
+        .enumerate()
+        .map(|(k, (t, v))| {
+            if k == 0 {
+                return *t;
+            }
+            let c = v.points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / v.points.len() as Real;
+            let c = t * Point3::from(c);
+            let rot = UnitQuaternion::from_scaled_axis(rng.direction() * (5.0 + 10.0 * rng.uniform()).to_radians());
+            let shift = rng.direction() * (5.0 + 5.0 * rng.uniform());
+            Isometry3::from_parts(Translation3::from(c.coords + shift), rot) * Translation3::from(-c.coords) * t
+        })
+        .collect();
+    // Around the turntable from bun000 both ways, then the scans from above and below.
+    let names = fixtures::BUNNY_SCANS;
+    let order: Vec<usize> = ["bun045", "bun315", "bun090", "bun270", "bun180", "chin", "top3", "top2", "ear_back"]
+        .iter()
+        .map(|n| names.iter().position(|m| m == n).unwrap())
+        .collect();
+    let (est, report) = process::multiview::refine_views(views, &initial, Some(&order), &Default::default()).unwrap();
+    let mut worst: (Real, Real) = (0.0, 0.0);
+    for (k, name) in fixtures::BUNNY_SCANS.iter().enumerate() {
+        let c = views[k].points.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / views[k].points.len() as Real;
+        let rot = (est[k].rotation.inverse() * truth[k].rotation).angle().to_degrees();
+        let shift = (est[k] * Point3::from(c) - truth[k] * Point3::from(c)).norm();
+        eprintln!("seed {seed}: {name}: {rot:.3}° {shift:.3} mm from bun.conf");
+        worst = (worst.0.max(rot), worst.1.max(shift));
+    }
+    eprintln!(
+        "seed {seed}: worst {:.3}° {:.3} mm; per-round largest change {:?}°",
+        worst.0, worst.1, report.max_rotation_change_deg
+    );
+    assert!(worst.0 < 0.5 && worst.1 < 0.5, "worst {worst:?}");
+}
