@@ -37,6 +37,7 @@ pub mod gray_code;
 pub mod grid_normals;
 pub mod icp;
 pub mod laser_line;
+pub mod mean_shift;
 pub mod multiview;
 pub mod normals;
 pub mod phase_shift;

@@ -24,6 +24,15 @@ impl PointTree {
         (n.item as usize, n.distance)
     }
 
+    /// Indices of the points within `radius` of `p`, in no order.
+    pub fn within(&self, p: &Point3, radius: f64) -> Vec<usize> {
+        self.tree
+            .within_unsorted::<SquaredEuclidean>(&[p.x, p.y, p.z], radius * radius)
+            .into_iter()
+            .map(|n| n.item as usize)
+            .collect()
+    }
+
     /// The `k` nearest points' indices, nearest first.
     pub fn nearest_k(&self, p: &Point3, k: usize) -> Vec<usize> {
         let k = NonZero::new(k.max(1)).expect("k ≥ 1");
