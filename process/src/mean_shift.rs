@@ -73,6 +73,8 @@ pub struct MeanShiftReport {
     pub points_out: usize,
     /// Mean iterations per sample.
     pub mean_iterations: Real,
+    /// Samples that stopped at `max_iterations` without meeting eq. 3.10.
+    pub hit_iteration_limit: usize,
     /// Seconds building kernels.
     pub seconds_kernels: Real,
     /// Seconds iterating.
@@ -188,6 +190,7 @@ pub fn mean_shift(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResu
         })
         .collect();
     report.mean_iterations = moved.iter().map(|m| m.1 as Real).sum::<Real>() / moved.len() as Real;
+    report.hit_iteration_limit = moved.iter().filter(|m| m.1 >= params.max_iterations).count();
     report.seconds_shift = t.elapsed().as_secs_f64();
 
     let t = std::time::Instant::now();

@@ -80,7 +80,7 @@ fn bunny_with_25k_outliers_is_cleaned_and_smoothed() {
     let (median, p99) = (d[d.len() / 2], d[d.len() * 99 / 100]);
     let r = &result.report;
     eprintln!(
-        "mean shift: {} → {} points ({} clusters, {} removed as outliers) in {seconds:.1} s (kernels {:.1} s, shift {:.1} s, {:.1} iterations);\n  far outliers removed {:.2} % ({far_removed}/{far_total}); removed that are outliers {:.2} % ({removed_outliers}/{removed}); kept median {median:.4} mm, p99 {p99:.4} mm",
+        "mean shift: {} → {} points ({} clusters, {} removed as outliers) in {seconds:.1} s (kernels {:.1} s, shift {:.1} s, {:.1} iterations, {} at the limit);\n  far outliers removed {:.2} % ({far_removed}/{far_total}); removed that are outliers {:.2} % ({removed_outliers}/{removed}); kept median {median:.4} mm, p99 {p99:.4} mm",
         r.points_in,
         r.points_out,
         r.clusters,
@@ -88,6 +88,7 @@ fn bunny_with_25k_outliers_is_cleaned_and_smoothed() {
         r.seconds_kernels,
         r.seconds_shift,
         r.mean_iterations,
+        r.hit_iteration_limit,
         100.0 * far_removed as Real / far_total as Real,
         100.0 * removed_outliers as Real / removed.max(1) as Real
     );
