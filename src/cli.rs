@@ -31,6 +31,8 @@ pub enum Command {
     Process(ProcessArgs),
     /// Denoise range grids (PLY with range_grid) by the non-local filter, or the bilateral baseline.
     Denoise(DenoiseArgs),
+    /// Fuse a registered point cloud by mean shift: smooth it, cluster it, remove outliers (thesis ch. 3).
+    Fuse(FuseArgs),
     /// Decode a folder of structured-light images made by other tools into a projector correspondence map.
     Decode(DecodeArgs),
     /// Simulate a 36-view scan of the built-in object and process it: the whole pipeline on a virtual rig.
@@ -283,6 +285,24 @@ pub struct DenoiseArgs {
     #[arg(long, default_value_t = 0)]
     pub temporal: usize,
     /// Print the reports as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct FuseArgs {
+    /// The registered cloud (.ply with optional normals and confidence, .obj, .off vertices).
+    pub input: PathBuf,
+    /// The fused cloud (.ply or .obj), with normals.
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Neighbours per kernel (the adaptive kernel size).
+    #[arg(long, default_value_t = 24)]
+    pub k: usize,
+    /// Also write the points removed as outliers here.
+    #[arg(long)]
+    pub outliers: Option<PathBuf>,
+    /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
 }

@@ -6,6 +6,7 @@ mod convert;
 mod decode_cmd;
 mod demo;
 mod denoise_cmd;
+mod fuse_cmd;
 mod info;
 mod process_cmd;
 mod sim_cmd;
@@ -22,6 +23,7 @@ fn main() -> ExitCode {
         cli::Command::Process(a) => process_cmd::run(&a),
         cli::Command::Decode(a) => decode_cmd::run(&a),
         cli::Command::Denoise(a) => denoise_cmd::run(&a),
+        cli::Command::Fuse(a) => fuse_cmd::run(&a),
         cli::Command::Demo(a) => demo::run(&a),
     };
     match result {

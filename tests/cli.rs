@@ -40,7 +40,7 @@ fn help_lists_every_subcommand_with_one_line() {
     let o = scanrig(&[&"--help"]);
     assert!(o.status.success());
     let text = stdout(&o);
-    for cmd in ["info", "convert", "sim", "process", "denoise", "decode", "demo"] {
+    for cmd in ["info", "convert", "sim", "process", "denoise", "fuse", "decode", "demo"] {
         let line =
             text.lines().find(|l| l.trim_start().starts_with(cmd)).unwrap_or_else(|| panic!("{cmd} not in\n{text}"));
         assert!(line.len() > cmd.len() + 10, "{cmd} has no description: {line}");
@@ -298,4 +298,28 @@ fn denoise_smooths_range_grids_singly_and_as_a_sequence() {
     // Bad sizes are refused with the reason.
     let o = scanrig(&[&"denoise", &inputs[0], &"--window", &"4", &"-o", &out]);
     assert!(stderr(&o).contains("--window must be an odd size of at least 3"), "{}", stderr(&o));
+}
+
+#[test]
+fn fuse_removes_scattered_outliers_from_a_cloud() {
+    let d = Dir::new();
+    // A 40 × 40 grid on the plane z = 0 with small noise, and 30 points scattered 5–20 mm above it.
+    let mut s = 99u64;
+    let mut u = move || {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut positions: Vec<rig::Point3> =
+        (0..1600).map(|i| rig::Point3::new((i % 40) as f64 * 0.5, (i / 40) as f64 * 0.5, 0.02 * (u() - 0.5))).collect();
+    positions.extend((0..30).map(|_| rig::Point3::new(20.0 * u(), 20.0 * u(), 5.0 + 15.0 * u())));
+    let input = d.path("cloud.ply");
+    rig::ply::write_cloud(&input, &rig::PointCloud::from_positions(positions), &rig::ply::WriteOptions::default())
+        .unwrap();
+    let (out, outliers) = (d.path("fused.ply"), d.path("outliers.ply"));
+    let o = scanrig(&[&"fuse", &input, &"-o", &out, &"--outliers", &outliers]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let fused = rig::read_cloud(&out).unwrap();
+    assert!(fused.normals.is_some() && fused.len() > 1000);
+    assert!(fused.positions.iter().all(|p| p.z.abs() < 1.0), "an outlier survived");
+    assert!(rig::read_cloud(&outliers).unwrap().len() >= 30);
 }
