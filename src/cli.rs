@@ -31,6 +31,8 @@ pub enum Command {
     Process(ProcessArgs),
     /// Denoise range grids (PLY with range_grid) by the non-local filter, or the bilateral baseline.
     Denoise(DenoiseArgs),
+    /// Register a processed scan's views by multi-view ICP from the turntable poses, and merge them again.
+    Register(RegisterArgs),
     /// Fuse a registered point cloud by mean shift: smooth it, cluster it, remove outliers (thesis ch. 3).
     Fuse(FuseArgs),
     /// Decode a folder of structured-light images made by other tools into a projector correspondence map.
@@ -303,6 +305,21 @@ pub struct FuseArgs {
     #[arg(long)]
     pub outliers: Option<PathBuf>,
     /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct RegisterArgs {
+    /// The scan folder (with scan.json), already through `scanrig process`.
+    pub scan: PathBuf,
+    /// The processed folder (default: SCAN/processed).
+    #[arg(long)]
+    pub processed: Option<PathBuf>,
+    /// The registered, merged cloud (default: PROCESSED/registered.ply); poses go beside it as JSON.
+    #[arg(long, short)]
+    pub out: Option<PathBuf>,
+    /// Print the poses as JSON.
     #[arg(long)]
     pub json: bool,
 }

@@ -40,7 +40,7 @@ fn help_lists_every_subcommand_with_one_line() {
     let o = scanrig(&[&"--help"]);
     assert!(o.status.success());
     let text = stdout(&o);
-    for cmd in ["info", "convert", "sim", "process", "denoise", "fuse", "decode", "demo"] {
+    for cmd in ["info", "convert", "sim", "process", "denoise", "register", "fuse", "decode", "demo"] {
         let line =
             text.lines().find(|l| l.trim_start().starts_with(cmd)).unwrap_or_else(|| panic!("{cmd} not in\n{text}"));
         assert!(line.len() > cmd.len() + 10, "{cmd} has no description: {line}");
@@ -322,4 +322,65 @@ fn fuse_removes_scattered_outliers_from_a_cloud() {
     assert!(fused.normals.is_some() && fused.len() > 1000);
     assert!(fused.positions.iter().all(|p| p.z.abs() < 1.0), "an outlier survived");
     assert!(rig::read_cloud(&outliers).unwrap().len() >= 30);
+}
+
+/// The rotation (degrees) between view k's pose relative to view 0 in two pose sets (object_from_camera).
+fn relative_rotation_error(a: &[rig::Isometry3], b: &[rig::Isometry3], k: usize) -> f64 {
+    let ra = a[0].inverse() * a[k];
+    let rb = b[0].inverse() * b[k];
+    (ra.rotation.inverse() * rb.rotation).angle().to_degrees()
+}
+
+#[test]
+fn register_corrects_views_placed_by_a_miscalibrated_turntable_axis() {
+    let d = Dir::new();
+    let scan = d.path("scan");
+    let o = scanrig(&[&"sim", &"--views", &"6", &"--resolution", &"320x256", &"--out", &scan]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The truth poses, then the rig file's axis tilted by 1°, as a poor calibration would leave it.
+    let truth: Vec<rig::Isometry3> = (0..6)
+        .map(|v| {
+            let m = rig::npy::read(&scan.join(format!("truth/view_{v:03}/pose.npy"))).unwrap().to_f64();
+            let m = nalgebra::Matrix4::from_row_slice(&m);
+            nalgebra::try_convert::<_, rig::Isometry3>(m).unwrap().inverse()
+        })
+        .collect();
+    let rig_path = scan.join("rig.toml");
+    let mut r = rig::Rig::read(&rig_path).unwrap();
+    let mut axis = r.turntable.unwrap();
+    axis.direction = rig::UnitVector3::new_normalize(
+        nalgebra::Rotation3::from_axis_angle(&rig::Vector3::x_axis(), 1f64.to_radians()) * axis.direction.into_inner(),
+    );
+    r.turntable = Some(axis);
+    r.write(&rig_path).unwrap();
+    let o = scanrig(&[&"process", &scan, &"--no-denoise"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = scanrig(&[&"register", &scan, &"--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let poses: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let refined: Vec<rig::Isometry3> = poses
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| {
+            let rows: Vec<f64> = p["object_from_camera"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .flat_map(|r| r.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()))
+                .collect();
+            nalgebra::try_convert::<_, rig::Isometry3>(nalgebra::Matrix4::from_row_slice(&rows)).unwrap()
+        })
+        .collect();
+    let from_rig: Vec<rig::Isometry3> = (0..6).map(|v| axis.object_from_camera(v as f64 * 60.0)).collect();
+    let (mut before, mut after) = (0.0f64, 0.0f64);
+    for k in 1..6 {
+        before = before.max(relative_rotation_error(&from_rig, &truth, k));
+        after = after.max(relative_rotation_error(&refined, &truth, k));
+    }
+    eprintln!(
+        "register: worst relative view rotation error {before:.3}° from the tilted axis, {after:.3}° after registration"
+    );
+    assert!(after < 0.25 * before && after < 0.2, "before {before}, after {after}");
+    assert!(scan.join("processed/registered.ply").is_file() && scan.join("processed/registered.poses.json").is_file());
 }

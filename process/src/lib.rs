@@ -45,6 +45,7 @@ pub mod pipeline;
 pub mod placement;
 pub mod preview;
 pub mod projector_map;
+pub mod register_scan;
 pub mod structured_light;
 pub mod triangulate;
 

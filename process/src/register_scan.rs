@@ -1,0 +1,117 @@
+//! Registering a processed scan: every view's range grid (denoised where available) refined from its
+//! turntable pose by multi-view ICP ([`crate::multiview`]), then placed, cropped and merged again. What
+//! `scanrig register` runs on the output of `scanrig process`.
+
+use crate::icp::IcpError;
+use crate::multiview::{MultiViewParams, View, refine_views};
+use crate::placement::{CropParams, merge, place_view};
+use crate::{Error, grid_normals};
+use rig::math::{Isometry3, Real};
+use rig::scan_folder::Manifest;
+use rig::{PointCloud, RangeGrid, Rig};
+use serde::Serialize;
+use std::path::Path;
+
+/// One view's refined pose and how far it moved from the turntable's.
+#[derive(Debug, Clone, Serialize)]
+pub struct ViewPose {
+    /// View index.
+    pub view: usize,
+    /// Turntable angle (degrees).
+    pub angle_deg: Real,
+    /// The refined camera → object transform, row-major 4 × 4.
+    pub object_from_camera: [[Real; 4]; 4],
+    /// Rotation between the turntable pose and the refined one (degrees).
+    pub rotation_change_deg: Real,
+    /// Movement of the view's centroid between the two poses (mm).
+    pub shift_mm: Real,
+}
+
+/// Loads a view's grid: the denoised one if `processed/denoised` has it, else the triangulated one.
+fn load_grid(processed: &Path, v: usize) -> Result<Option<RangeGrid>, Error> {
+    for dir in ["denoised", "views"] {
+        let p = processed.join(format!("{dir}/view_{v:03}.ply"));
+        if p.is_file() {
+            return Ok(Some(rig::ply::read_range_grid(&p)?));
+        }
+    }
+    Ok(None)
+}
+
+/// A grid's valid cells as a view: points, unit normals (grid normals, estimated if absent) and the
+/// cells on the grid's boundary.
+fn view_of(mut grid: RangeGrid) -> View {
+    if grid.normals.is_none() {
+        grid_normals::estimate_normals(&mut grid, 2.0);
+    }
+    let (w, h) = (grid.width, grid.height);
+    let normals = grid.normals.as_ref().expect("estimated above");
+    let cells: Vec<usize> = (0..w * h).filter(|&i| grid.valid[i] && normals[i].norm_squared() > 0.0).collect();
+    View {
+        points: cells.iter().map(|&i| grid.points[i]).collect(),
+        normals: cells.iter().map(|&i| normals[i]).collect(),
+        boundary: cells
+            .iter()
+            .map(|&i| {
+                let (c, r) = (i % w, i / w);
+                c == 0
+                    || r == 0
+                    || c + 1 == w
+                    || r + 1 == h
+                    || [i - 1, i + 1, i - w, i + w].iter().any(|&j| !grid.valid[j])
+            })
+            .collect(),
+    }
+}
+
+/// Refines the poses of the complete views of a processed scan and merges them again (cropped like
+/// the pipeline's merge). Returns the registered cloud and every view's pose.
+pub fn register_scan(
+    scan: &Path,
+    processed: &Path,
+    crop: &CropParams,
+    params: &MultiViewParams,
+) -> Result<(PointCloud, Vec<ViewPose>), Error> {
+    let manifest = Manifest::read(scan)?;
+    let rig_path = scan.join(&manifest.rig);
+    let rig = Rig::read(&rig_path)?;
+    let axis = rig.turntable.ok_or_else(|| {
+        Error::Setup(format!("{}: registration from turntable poses needs a [turntable]", rig_path.display()))
+    })?;
+    let mut ids = Vec::new();
+    let mut views = Vec::new();
+    for (v, view) in manifest.views.iter().enumerate().filter(|(_, view)| view.complete) {
+        if let Some(grid) = load_grid(processed, v)? {
+            ids.push((v, view.angle_deg));
+            views.push(view_of(grid));
+        }
+    }
+    if views.len() < 2 {
+        return Err(Error::Setup(format!(
+            "{}: registration needs at least two processed views, found {}",
+            processed.display(),
+            views.len()
+        )));
+    }
+    let initial: Vec<Isometry3> = ids.iter().map(|&(_, a)| axis.object_from_camera(a)).collect();
+    let (poses, _) = refine_views(&views, &initial, None, params)
+        .map_err(|e: IcpError| Error::Setup(format!("registration: {e}")))?;
+    let crop = CropParams { radius_mm: crop.radius_mm.or(rig.platter_radius_mm), ..*crop };
+    let mut clouds = Vec::new();
+    let mut report = Vec::new();
+    for (k, &(v, angle)) in ids.iter().enumerate() {
+        let grid = load_grid(processed, v)?.expect("loaded above");
+        clouds.push(place_view(&grid, &poses[k], &crop, v as u32));
+        let n = views[k].points.len().max(1) as Real;
+        let c = rig::Point3::from(views[k].points.iter().fold(rig::Vector3::zeros(), |a, p| a + p.coords) / n);
+        let m = poses[k].to_homogeneous();
+        report.push(ViewPose {
+            view: v,
+            angle_deg: angle,
+            object_from_camera: std::array::from_fn(|r| std::array::from_fn(|col| m[(r, col)])),
+            rotation_change_deg: (poses[k].rotation.inverse() * initial[k].rotation).angle().to_degrees(),
+            shift_mm: (poses[k] * c - initial[k] * c).norm(),
+        });
+    }
+    Ok((merge(clouds), report))
+}
