@@ -15,15 +15,8 @@ fn main() {
     let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(0.8));
 
     // One view's geometry (every pixel's ray, projector shadow rays), then every frame of the program.
-    let pose = sim::scan::view_pose(&cfg, 30.0);
-    let geometry = sim::view_geometry(&scene, &cfg, &sim::pixel_rays(&cfg.rig.camera), &pose);
-    let patterns = sim::scan::program(&cfg, Method::StructuredLight).unwrap();
-    let projector = cfg.rig.projector.unwrap();
-    let lights: Vec<_> = patterns
-        .iter()
-        .map(|&p| sim::light::PatternLight::new(p, &projector.lens, &cfg.projector, |v| projector.drive(v)))
-        .collect();
-    let frames = sim::scan::render_view(&geometry, &cfg, &lights, 1, 0);
+    let view = sim::scan::simulate_view(&cfg, &scene, Method::StructuredLight, 30.0, 1, 0).unwrap();
+    let (geometry, patterns, frames) = (&view.geometry, &view.patterns, &view.frames);
 
     let on_object = geometry.kind.iter().filter(|&&k| k == sim::PartKind::Object as u8).count();
     let lit = geometry.projector_cos.iter().filter(|&&c| c > 0.0).count();

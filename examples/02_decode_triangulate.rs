@@ -14,15 +14,9 @@ fn main() {
         .with_camera_resolution(640, 480);
     let vase = sim::fluted_vase(120.0);
     let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(0.8));
-    let pose = sim::scan::view_pose(&cfg, 0.0);
-    let geometry = sim::view_geometry(&scene, &cfg, &sim::pixel_rays(&cfg.rig.camera), &pose);
-    let patterns = sim::scan::program(&cfg, Method::StructuredLight).unwrap();
+    let view = sim::scan::simulate_view(&cfg, &scene, Method::StructuredLight, 0.0, 7, 0).unwrap();
+    let (geometry, patterns, frames) = (&view.geometry, &view.patterns, &view.frames);
     let projector = cfg.rig.projector.unwrap();
-    let lights: Vec<_> = patterns
-        .iter()
-        .map(|&p| sim::light::PatternLight::new(p, &projector.lens, &cfg.projector, |v| projector.drive(v)))
-        .collect();
-    let frames = sim::scan::render_view(&geometry, &cfg, &lights, 7, 0);
 
     // Decode Gray code + phase shift into projector coordinates, then intersect camera and projector rays.
     let labelled: Vec<(Pattern, &rig::image::Image8)> = patterns.iter().copied().zip(frames.iter()).collect();

@@ -30,15 +30,9 @@ fn main() {
         SimConfig::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/sim-structured-light.toml")).unwrap();
     let vase = sim::fluted_vase(120.0);
     let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(0.8));
-    let patterns = sim::scan::program(&cfg, rig::Method::StructuredLight).unwrap();
     let projector = cfg.rig.projector.unwrap();
-    let lights: Vec<sim::light::PatternLight> = patterns
-        .iter()
-        .map(|&p| sim::light::PatternLight::new(p, &projector.lens, &cfg.projector, |v| projector.drive(v)))
-        .collect();
-    let pose = sim::scan::view_pose(&cfg, 0.0);
-    let g = sim::view_geometry(&scene, &cfg, &sim::pixel_rays(&cfg.rig.camera), &pose);
-    let frames: Vec<Image8> = sim::scan::render_view(&g, &cfg, &lights, 1, 0);
+    let view = sim::scan::simulate_view(&cfg, &scene, rig::Method::StructuredLight, 0.0, 1, 0).unwrap();
+    let (patterns, frames) = (view.patterns, view.frames);
     let refs: Vec<(Pattern, &Image8)> = patterns.iter().copied().zip(frames.iter()).collect();
     let bytes: usize = frames.iter().map(|f| f.data.len()).sum();
     println!(

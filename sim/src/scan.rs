@@ -87,15 +87,36 @@ pub fn view_pose(cfg: &SimConfig, angle_deg: Real) -> Isometry3 {
     cfg.rig.turntable.map(|t| t.camera_from_object(angle_deg)).unwrap_or_else(Isometry3::identity)
 }
 
-/// Renders every frame of one view from its geometry: `(pattern, image)` in program order.
-pub fn render_view(
-    g: &ViewGeometry,
+/// One view simulated in memory: its geometry (with truth), the capture program and the frames.
+pub struct SimulatedView {
+    /// The view's per-pixel geometry and truth.
+    pub geometry: ViewGeometry,
+    /// What each frame shows, in capture order.
+    pub patterns: Vec<Pattern>,
+    /// The rendered frames, one per pattern.
+    pub frames: Vec<rig::image::Image8>,
+}
+
+/// Simulates one view of `method` at turntable angle `angle_deg` without writing anything: for
+/// examples, benchmarks and tests that want frames in memory. `view` and `seed` pick the noise as in
+/// [`simulate_scan`].
+pub fn simulate_view(
     cfg: &SimConfig,
-    lights: &[PatternLight],
+    scene: &Scene,
+    method: Method,
+    angle_deg: Real,
     seed: u64,
     view: usize,
-) -> Vec<rig::image::Image8> {
-    lights.par_iter().enumerate().map(|(f, light)| render_frame(g, cfg, light, frame_key(seed, view, f))).collect()
+) -> Result<SimulatedView, Error> {
+    let patterns = program(cfg, method)?;
+    let lights = lights_for(cfg, &patterns);
+    let geometry = view_geometry(scene, cfg, &pixel_rays(&cfg.rig.camera), &view_pose(cfg, angle_deg));
+    let frames = lights
+        .par_iter()
+        .enumerate()
+        .map(|(f, light)| render_frame(&geometry, cfg, light, frame_key(seed, view, f)))
+        .collect();
+    Ok(SimulatedView { geometry, patterns, frames })
 }
 
 /// Writes one view's frames (in parallel) and, if asked, its truth.

@@ -174,11 +174,8 @@ pub fn cloud_to_bytes(cloud: &PointCloud, opts: &WriteOptions) -> Vec<u8> {
 }
 
 /// A polygon mesh as PLY bytes: vertices (with normals where present), faces as
-/// `list uchar int vertex_indices` (quads as 4-lists).
-///
-/// # Panics
-/// Never for meshes built by this crate; a face with more than 255 corners cannot be written as a
-/// `uchar` list and is split into a fan first.
+/// `list uchar int vertex_indices` (quads as 4-lists). A face with more than 255 corners does not fit a
+/// `uchar` count, so such a mesh is written as a fan of triangles.
 pub fn mesh_to_bytes(mesh: &PolyMesh, opts: &WriteOptions) -> Vec<u8> {
     let t = real(opts);
     let fan;
