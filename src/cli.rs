@@ -299,7 +299,7 @@ pub struct FuseArgs {
     #[arg(long, short)]
     pub out: PathBuf,
     /// Neighbours per kernel (the adaptive kernel size).
-    #[arg(long, default_value_t = 24)]
+    #[arg(long, default_value_t = process::mean_shift::MeanShiftParams::default().k)]
     pub k: usize,
     /// Also write the points removed as outliers here.
     #[arg(long)]

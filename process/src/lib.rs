@@ -46,6 +46,7 @@ pub mod placement;
 pub mod preview;
 pub mod projector_map;
 pub mod register_scan;
+pub mod spatial_order;
 pub mod structured_light;
 pub mod triangulate;
 

@@ -9,8 +9,11 @@
 //!   confidence.
 //! - Iteration (eqs. 3.6–3.9, with the adaptive step of eq. 3.7): `p ← p − m`, `m = Σ w_j Φ_j
 //!   ((p − c_j)·n_j) n_j / Σ w_j Φ_j`, stopping by eq. 3.10 when a step is below 1e-4·h.
-//! - Clustering and outliers: samples that end within `merge` of each other become one point; a point
-//!   whose k-th neighbour is far farther than typical is an outlier (isolated maxima).
+//! - Outliers and clustering: a sample where the normalised kernel density at its *start* is a small
+//!   fraction of the median is removed before clustering (the adaptive step would otherwise carry it
+//!   onto the surface); the rest that end within `merge` of each other become one point, and a
+//!   representative whose k-th neighbour is far farther than typical is an outlier too (the isolated
+//!   maxima of section 3.3.1).
 
 use crate::normals::PointTree;
 use rayon::prelude::*;
@@ -34,8 +37,9 @@ pub struct MeanShiftParams {
     pub max_iterations: usize,
     /// Samples ending closer than this fraction of their kernel size are one cluster.
     pub merge: Real,
-    /// A sample whose kernel support `Σ w_j Φ_j` at its starting position is below this fraction of the
-    /// median support is an outlier: no surface kernel reaches it.
+    /// A sample whose kernel density `Σ w_j Φ_j / √det C_j` at its starting position is below this
+    /// fraction of the median is an outlier: no surface kernel reaches it, and the wide kernels built
+    /// over scattered outliers are thin densities.
     pub min_support: Real,
     /// A representative whose distance to its `density_k`-th neighbour exceeds `outlier_factor` times
     /// the median such distance is an outlier too (isolated maxima, section 3.3.1).
@@ -47,9 +51,9 @@ pub struct MeanShiftParams {
 impl Default for MeanShiftParams {
     fn default() -> Self {
         MeanShiftParams {
-            k: 24,
+            k: 64,
             kernels_per_step: 16,
-            kernel_scale: 2.0,
+            kernel_scale: 2.25,
             min_axis_ratio: 0.05,
             max_iterations: 30,
             merge: 0.05,
@@ -67,7 +71,9 @@ pub struct MeanShiftReport {
     pub points_in: usize,
     /// Clusters (representatives) before outlier removal.
     pub clusters: usize,
-    /// Representatives removed as outliers.
+    /// Samples removed before clustering: unsupported, or off their neighbours' plane.
+    pub strays: usize,
+    /// Representatives removed as isolated (low density of representatives).
     pub outliers_removed: usize,
     /// Points out.
     pub points_out: usize,
@@ -90,6 +96,8 @@ struct Kernel {
     normal: Vector3,
     inv: Matrix3,
     h: Real,
+    /// 1/√det of the kernel's covariance (up to a constant): Φ's peak as a probability density.
+    density: Real,
 }
 
 fn build_kernels(points: &[Point3], tree: &PointTree, p: &MeanShiftParams) -> Vec<Kernel> {
@@ -114,13 +122,18 @@ fn build_kernels(points: &[Point3], tree: &PointTree, p: &MeanShiftParams) -> Ve
             };
             let largest = eig.eigenvalues[order[0]].max(1e-24);
             let mut inv = Matrix3::zeros();
+            // The Gaussian's normalisation 1/√det: a kernel spread over a big blob of scattered points
+            // (outliers' kernels) is a far lower density than a flat surface kernel of the same peak.
+            let mut density = 1.0;
             for &l in &order {
                 let v = eig.eigenvectors.column(l).into_owned();
                 let lambda = eig.eigenvalues[l].max(largest * p.min_axis_ratio * p.min_axis_ratio);
                 inv += v * v.transpose() / (lambda * p.kernel_scale * p.kernel_scale);
+                density /= lambda.sqrt() * p.kernel_scale;
             }
             let normal = eig.eigenvectors.column(order[2]).into_owned();
-            Kernel { centre: Point3::from(centre), normal, inv, h: p.kernel_scale * largest.sqrt() }
+            let h = p.kernel_scale * largest.sqrt();
+            Kernel { centre: Point3::from(centre), normal, inv, h, density }
         })
         .collect()
 }
@@ -139,6 +152,19 @@ pub struct MeanShiftResult {
 
 /// Fuses a cloud (see the module doc).
 pub fn mean_shift(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResult {
+    // Every step is per-point neighbourhood work: in Morton order it stays cache-local, so time
+    // grows linearly with the cloud (BENCHMARKS.md, mean shift scaling).
+    let order = crate::spatial_order::morton_order(&cloud.positions);
+    let mut result = mean_shift_in_order(&cloud.select(&order), params);
+    let mut kept = vec![false; cloud.len()];
+    for (&i, &k) in order.iter().zip(&result.kept) {
+        kept[i] = k;
+    }
+    result.kept = kept;
+    result
+}
+
+fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResult {
     let mut report = MeanShiftReport { points_in: cloud.len(), ..Default::default() };
     if cloud.len() < params.k.max(params.density_k) + 1 {
         report.points_out = cloud.len();
@@ -169,14 +195,16 @@ pub fn mean_shift(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResu
             for it in 0..params.max_iterations {
                 let mut m = Vector3::zeros();
                 let mut den = 0.0;
+                let mut pdf = 0.0;
                 for &j in &near {
                     let k = &kernels[j];
                     let y = p - k.centre;
                     let phi = weight(j) * (-0.5 * y.dot(&(k.inv * y))).exp();
                     m += k.normal * (phi * y.dot(&k.normal));
                     den += phi;
+                    pdf += phi * k.density;
                 }
-                let s0 = *support.get_or_insert(den);
+                let s0 = *support.get_or_insert(pdf);
                 if den < 1e-300 {
                     return (p, it, nearest, s0);
                 }
@@ -194,6 +222,18 @@ pub fn mean_shift(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResu
     report.seconds_shift = t.elapsed().as_secs_f64();
 
     let t = std::time::Instant::now();
+    // Strays first: a sample where the kernel density at its start is low is an outlier whatever
+    // maximum it reaches — eq. 3.7's adaptive step can carry it onto the surface, where it would
+    // otherwise join (and bias) a surface cluster.
+    let median_support = {
+        let mut s: Vec<Real> = moved.iter().map(|m| m.3).collect();
+        s.sort_by(Real::total_cmp);
+        s[s.len() / 2]
+    };
+    let stray: Vec<bool> = moved.iter().map(|m| m.3 < params.min_support * median_support).collect();
+    report.strays = stray.iter().filter(|&&s| s).count();
+    let members: Vec<usize> = (0..moved.len()).filter(|&i| !stray[i]).collect();
+
     // Clusters: samples that converged within `merge`·h of each other reached the same maximum
     // (union–find over radius queries, so a cluster never splits at an arbitrary cell border).
     let radius = params.merge * {
@@ -201,7 +241,7 @@ pub fn mean_shift(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResu
         hs.sort_by(Real::total_cmp);
         hs[hs.len() / 2]
     };
-    let finals: Vec<Point3> = moved.iter().map(|m| m.0).collect();
+    let finals: Vec<Point3> = members.iter().map(|&i| moved[i].0).collect();
     let final_tree = PointTree::new(&finals);
     let pairs: Vec<Vec<usize>> = finals.par_iter().map(|p| final_tree.within(p, radius)).collect();
     let mut parent: Vec<usize> = (0..finals.len()).collect();
@@ -222,48 +262,42 @@ pub fn mean_shift(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResu
     }
     let mut index: HashMap<usize, usize> = HashMap::new();
     let mut sums: Vec<(Vector3, usize, usize)> = Vec::new();
-    let mut cluster_of = Vec::with_capacity(moved.len());
-    for (i, (p, _, nearest, _)) in moved.iter().enumerate() {
-        let r = root(&mut parent, i);
+    // Per input sample, its cluster (None for strays).
+    let mut cluster_of = vec![None; moved.len()];
+    for (m, &i) in members.iter().enumerate() {
+        let (p, _, nearest, _) = moved[i];
+        let r = root(&mut parent, m);
         let c = *index.entry(r).or_insert_with(|| {
-            sums.push((Vector3::zeros(), 0, *nearest));
+            sums.push((Vector3::zeros(), 0, nearest));
             sums.len() - 1
         });
         sums[c].0 += p.coords;
         sums[c].1 += 1;
-        cluster_of.push(c);
+        cluster_of[i] = Some(c);
     }
     let reps: Vec<(Point3, usize)> = sums.iter().map(|(s, n, near)| (Point3::from(s / *n as Real), *near)).collect();
     report.clusters = reps.len();
-    // Outliers converge alone, far from the surface's dense representatives: test the k-th neighbour.
-    let rep_points: Vec<Point3> = reps.iter().map(|r| r.0).collect();
-    let rep_tree = PointTree::new(&rep_points);
-    let kth: Vec<Real> = rep_points
-        .par_iter()
-        .map(|p| {
-            let nb = rep_tree.nearest_k(p, params.density_k + 1);
-            (rep_points[*nb.last().unwrap()] - p).norm()
-        })
-        .collect();
-    let median = {
-        let mut s = kth.clone();
-        s.sort_by(Real::total_cmp);
-        s[s.len() / 2]
+    // Section 3.3.1: groups of outliers converge to points sparsely spread around the surface, so a
+    // representative whose `density_k`-th neighbouring representative is far farther than typical goes.
+    let keep: Vec<bool> = if reps.len() > params.density_k {
+        let rep_points: Vec<Point3> = reps.iter().map(|r| r.0).collect();
+        let rep_tree = PointTree::new(&rep_points);
+        let kth: Vec<Real> = rep_points
+            .par_iter()
+            .map(|p| {
+                let nb = rep_tree.nearest_k(p, params.density_k + 1);
+                (rep_points[*nb.last().unwrap()] - p).norm()
+            })
+            .collect();
+        let median = {
+            let mut s = kth.clone();
+            s.sort_by(Real::total_cmp);
+            s[s.len() / 2]
+        };
+        kth.iter().map(|&d| d <= params.outlier_factor * median).collect()
+    } else {
+        vec![true; reps.len()]
     };
-    let mut keep: Vec<bool> = kth.iter().map(|&d| d <= params.outlier_factor * median).collect();
-    // Kernel support: a cluster is an outlier where its samples found (almost) no surface kernel.
-    let median_support = {
-        let mut s: Vec<Real> = moved.iter().map(|m| m.3).collect();
-        s.sort_by(Real::total_cmp);
-        s[s.len() / 2]
-    };
-    let mut supported = vec![false; reps.len()];
-    for (m, &c) in moved.iter().zip(&cluster_of) {
-        supported[c] |= m.3 >= params.min_support * median_support;
-    }
-    for (k, s) in keep.iter_mut().zip(&supported) {
-        *k &= *s;
-    }
     let mut out = PointCloud { normals: Some(Vec::new()), ..Default::default() };
     for (r, (p, near)) in reps.iter().enumerate() {
         if !keep[r] {
@@ -281,6 +315,6 @@ pub fn mean_shift(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResu
     }
     report.points_out = out.len();
     report.seconds_cluster = t.elapsed().as_secs_f64();
-    let kept = cluster_of.iter().map(|&c| keep[c]).collect();
+    let kept = cluster_of.iter().map(|c| c.is_some_and(|c| keep[c])).collect();
     MeanShiftResult { cloud: out, kept, report }
 }

@@ -19,24 +19,7 @@ fn load(name: &str) -> Option<Scan> {
     Some(Scan { points, normals, boundary })
 }
 
-/// xorshift, seeded per trial.
-struct Rng(u64);
-impl Rng {
-    fn uniform(&mut self) -> Real {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        (self.0 >> 11) as Real / (1u64 << 53) as Real
-    }
-    fn direction(&mut self) -> Vector3 {
-        loop {
-            let v = Vector3::new(self.uniform() - 0.5, self.uniform() - 0.5, self.uniform() - 0.5);
-            if v.norm() > 0.05 && v.norm() <= 0.5 {
-                return v.normalize();
-            }
-        }
-    }
-}
+use fixtures::Rng;
 
 /// Median nearest-neighbour distance over moving points within 2 mm of the target (the data README's
 /// pairwise statistic).
@@ -81,7 +64,7 @@ fn bunny_pairs_register_from_perturbed_poses() {
         let (mut ok, mut stat, mut iterations) = (0, None, 0);
         let start = std::time::Instant::now();
         for trial in 0..trials {
-            let mut rng = Rng(0x5eed_0000 + trial as u64 * 7919 + moving_name.len() as u64);
+            let mut rng = Rng::new(0x5eed_0000 + trial as u64 * 7919 + moving_name.len() as u64);
             let angle = (5.0 + 10.0 * rng.uniform()).to_radians();
             let rot = UnitQuaternion::from_scaled_axis(rng.direction() * angle);
             let shift = rng.direction() * (5.0 + 5.0 * rng.uniform());
@@ -132,7 +115,7 @@ fn all_ten_bunny_scans_refine_to_bun_conf_from_perturbed_starts() {
 }
 
 fn refine_from(views: &[process::multiview::View], truth: &[Isometry3], seed: u64) {
-    let mut rng = Rng(seed);
+    let mut rng = Rng::new(seed);
     // bun000 is the anchor (bun.conf's identity); every other scan starts 5–15° and 5–10 mm off.
     let initial: Vec<Isometry3> = truth
         .iter()

@@ -39,6 +39,23 @@ impl PointCloud {
         Aabb::of(&self.positions)
     }
 
+    /// The points at `indices`, in that order, with all their attributes.
+    ///
+    /// # Panics
+    /// If an index is out of range.
+    pub fn select(&self, indices: &[usize]) -> PointCloud {
+        fn pick<T: Copy>(v: &Option<Vec<T>>, indices: &[usize]) -> Option<Vec<T>> {
+            v.as_ref().map(|v| indices.iter().map(|&i| v[i]).collect())
+        }
+        PointCloud {
+            positions: indices.iter().map(|&i| self.positions[i]).collect(),
+            normals: pick(&self.normals, indices),
+            colors: pick(&self.colors, indices),
+            confidence: pick(&self.confidence, indices),
+            view_id: pick(&self.view_id, indices),
+        }
+    }
+
     /// Checks every attribute has one entry per point; returns the first that does not.
     pub fn check_lengths(&self) -> Result<(), String> {
         let n = self.positions.len();
