@@ -168,6 +168,8 @@ pub enum StageArg {
     Triangulate,
     Denoise,
     Merge,
+    Register,
+    Fuse,
 }
 
 #[derive(clap::Args, Debug)]
@@ -178,7 +180,7 @@ pub struct ProcessArgs {
     #[arg(long, short)]
     pub out: Option<PathBuf>,
     /// Stop after this stage.
-    #[arg(long, value_enum, default_value = "merge")]
+    #[arg(long, value_enum, default_value = "fuse")]
     pub until: StageArg,
     /// Redo stages whose outputs are already current.
     #[arg(long)]

@@ -54,6 +54,23 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         processed.join("merged.ply").display(),
         report.merged_points
     );
+    if let Some(r) = &report.register {
+        println!(
+            "  registered cloud   {}  ({} points; views moved up to {:.3}° and {:.3} mm from the turntable poses)",
+            processed.join("registered.ply").display(),
+            r.points,
+            r.max_rotation_change_deg,
+            r.max_shift_mm
+        );
+    }
+    if let Some(f) = &report.fuse {
+        println!(
+            "  fused cloud        {}  ({} points with normals; {} outliers removed; mean shift, thesis ch. 3)",
+            processed.join("fused.ply").display(),
+            f.points_out,
+            f.strays + f.outliers_removed
+        );
+    }
     println!("  report             {}", processed.join("report.json").display());
     println!("  the ground-truth object is {}", scan.join("truth/object.ply").display());
     Ok(())

@@ -14,6 +14,8 @@ pub fn params(args: &ProcessArgs) -> ProcessParams {
             StageArg::Triangulate => Stage::Triangulate,
             StageArg::Denoise => Stage::Denoise,
             StageArg::Merge => Stage::Merge,
+            StageArg::Register => Stage::Register,
+            StageArg::Fuse => Stage::Fuse,
         },
         denoise: if args.no_denoise { None } else { defaults.denoise },
         force: args.force,
@@ -58,6 +60,29 @@ pub fn run(args: &ProcessArgs) -> Result<()> {
         )?;
         if !report.incomplete_views.is_empty() {
             writeln!(o, "  left out incomplete views {:?}", report.incomplete_views)?;
+        }
+        if let Some(r) = &report.register {
+            writeln!(
+                o,
+                "  registered {} views: moved up to {:.3}° and {:.3} mm from the turntable poses{}",
+                r.views,
+                r.max_rotation_change_deg,
+                r.max_shift_mm,
+                if r.reused { " (reused)" } else { "" }
+            )?;
+        }
+        if let Some(f) = &report.fuse {
+            writeln!(
+                o,
+                "  fused: {} → {} points, {} outliers removed, {:.1} s",
+                f.points_in,
+                f.points_out,
+                f.strays + f.outliers_removed,
+                f.seconds_kernels + f.seconds_shift + f.seconds_cluster
+            )?;
+        }
+        for s in &report.skipped {
+            writeln!(o, "  skipped {s}")?;
         }
         writeln!(o, "  report: {}", out.join("report.json").display())?;
     }

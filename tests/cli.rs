@@ -240,7 +240,7 @@ fn demo_simulates_processes_and_prints_its_outputs() {
     let o = scanrig(&[&"demo", &"--views", &"2", &"--out", &out]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = stdout(&o);
-    for line in ["merged cloud", "range grids", "depth previews", "report"] {
+    for line in ["merged cloud", "registered cloud", "fused cloud", "range grids", "depth previews", "report"] {
         assert!(text.contains(line), "{line} missing from\n{text}");
     }
     let merged = rig::read_cloud(&out.join("processed/merged.ply")).unwrap();
@@ -250,6 +250,9 @@ fn demo_simulates_processes_and_prints_its_outputs() {
     let o = scanrig(&[&"process", &out.join("scan"), &"--out", &out.join("processed"), &"--json"]);
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(report["views"].as_array().unwrap().iter().all(|v| v["reused"] == true), "{report}");
+    assert!(report["register"]["reused"] == true, "{report}");
+    let fused = rig::read_cloud(&out.join("processed/fused.ply")).unwrap();
+    assert!(fused.len() > 10_000 && fused.normals.is_some());
 }
 
 /// A noisy 60 × 40 range grid of the plane z = 500 mm (seeded).
@@ -321,6 +324,8 @@ fn fuse_removes_scattered_outliers_from_a_cloud() {
     let fused = rig::read_cloud(&out).unwrap();
     assert!(fused.normals.is_some() && fused.len() > 1000);
     assert!(fused.positions.iter().all(|p| p.z.abs() < 1.0), "an outlier survived");
+    // The input had no normals: the spanning tree orients them all alike, the seed facing up.
+    assert!(fused.normals.as_ref().unwrap().iter().all(|n| n.z > 0.9), "normals not oriented");
     assert!(rig::read_cloud(&outliers).unwrap().len() >= 30);
 }
 
@@ -353,7 +358,7 @@ fn register_corrects_views_placed_by_a_miscalibrated_turntable_axis() {
     );
     r.turntable = Some(axis);
     r.write(&rig_path).unwrap();
-    let o = scanrig(&[&"process", &scan, &"--no-denoise"]);
+    let o = scanrig(&[&"process", &scan, &"--no-denoise", &"--until", &"merge"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let o = scanrig(&[&"register", &scan, &"--json"]);
     assert!(o.status.success(), "{}", stderr(&o));

@@ -3,12 +3,12 @@
 //! `scanrig register` runs on the output of `scanrig process`.
 
 use crate::icp::IcpError;
-use crate::multiview::{MultiViewParams, View, refine_views};
+use crate::multiview::{MultiViewParams, MultiViewReport, View, refine_views};
 use crate::placement::{CropParams, merge, place_view};
 use crate::{Error, grid_normals};
 use rig::math::{Isometry3, Real};
 use rig::scan_folder::Manifest;
-use rig::{PointCloud, RangeGrid, Rig};
+use rig::{PointCloud, RangeGrid, Rig, TurntableAxis};
 use serde::Serialize;
 use std::path::Path;
 
@@ -64,6 +64,40 @@ fn view_of(mut grid: RangeGrid) -> View {
     }
 }
 
+/// Refines the poses of views from their turntable poses by multi-view ICP and merges them again,
+/// cropped like the pipeline's merge. `grids` are (view index, turntable angle, range grid); at least
+/// two. Returns the registered cloud, every view's pose and the registration's report.
+pub fn register_grids(
+    grids: &[(usize, Real, &RangeGrid)],
+    axis: &TurntableAxis,
+    crop: &CropParams,
+    params: &MultiViewParams,
+) -> Result<(PointCloud, Vec<ViewPose>, MultiViewReport), Error> {
+    if grids.len() < 2 {
+        return Err(Error::Setup(format!("registration needs at least two views, found {}", grids.len())));
+    }
+    let views: Vec<View> = grids.iter().map(|(_, _, g)| view_of((*g).clone())).collect();
+    let initial: Vec<Isometry3> = grids.iter().map(|&(_, a, _)| axis.object_from_camera(a)).collect();
+    let (poses, report) = refine_views(&views, &initial, None, params)
+        .map_err(|e: IcpError| Error::Setup(format!("registration: {e}")))?;
+    let mut clouds = Vec::new();
+    let mut view_poses = Vec::new();
+    for (k, &(v, angle, grid)) in grids.iter().enumerate() {
+        clouds.push(place_view(grid, &poses[k], crop, v as u32));
+        let n = views[k].points.len().max(1) as Real;
+        let c = rig::Point3::from(views[k].points.iter().fold(rig::Vector3::zeros(), |a, p| a + p.coords) / n);
+        let m = poses[k].to_homogeneous();
+        view_poses.push(ViewPose {
+            view: v,
+            angle_deg: angle,
+            object_from_camera: std::array::from_fn(|r| std::array::from_fn(|col| m[(r, col)])),
+            rotation_change_deg: (poses[k].rotation.inverse() * initial[k].rotation).angle().to_degrees(),
+            shift_mm: (poses[k] * c - initial[k] * c).norm(),
+        });
+    }
+    Ok((merge(clouds), view_poses, report))
+}
+
 /// Refines the poses of the complete views of a processed scan and merges them again (cropped like
 /// the pipeline's merge). Returns the registered cloud and every view's pose.
 pub fn register_scan(
@@ -78,40 +112,21 @@ pub fn register_scan(
     let axis = rig.turntable.ok_or_else(|| {
         Error::Setup(format!("{}: registration from turntable poses needs a [turntable]", rig_path.display()))
     })?;
-    let mut ids = Vec::new();
-    let mut views = Vec::new();
+    let mut grids = Vec::new();
     for (v, view) in manifest.views.iter().enumerate().filter(|(_, view)| view.complete) {
         if let Some(grid) = load_grid(processed, v)? {
-            ids.push((v, view.angle_deg));
-            views.push(view_of(grid));
+            grids.push((v, view.angle_deg, grid));
         }
     }
-    if views.len() < 2 {
+    if grids.len() < 2 {
         return Err(Error::Setup(format!(
             "{}: registration needs at least two processed views, found {}",
             processed.display(),
-            views.len()
+            grids.len()
         )));
     }
-    let initial: Vec<Isometry3> = ids.iter().map(|&(_, a)| axis.object_from_camera(a)).collect();
-    let (poses, _) = refine_views(&views, &initial, None, params)
-        .map_err(|e: IcpError| Error::Setup(format!("registration: {e}")))?;
     let crop = CropParams { radius_mm: crop.radius_mm.or(rig.platter_radius_mm), ..*crop };
-    let mut clouds = Vec::new();
-    let mut report = Vec::new();
-    for (k, &(v, angle)) in ids.iter().enumerate() {
-        let grid = load_grid(processed, v)?.expect("loaded above");
-        clouds.push(place_view(&grid, &poses[k], &crop, v as u32));
-        let n = views[k].points.len().max(1) as Real;
-        let c = rig::Point3::from(views[k].points.iter().fold(rig::Vector3::zeros(), |a, p| a + p.coords) / n);
-        let m = poses[k].to_homogeneous();
-        report.push(ViewPose {
-            view: v,
-            angle_deg: angle,
-            object_from_camera: std::array::from_fn(|r| std::array::from_fn(|col| m[(r, col)])),
-            rotation_change_deg: (poses[k].rotation.inverse() * initial[k].rotation).angle().to_degrees(),
-            shift_mm: (poses[k] * c - initial[k] * c).norm(),
-        });
-    }
-    Ok((merge(clouds), report))
+    let refs: Vec<(usize, Real, &RangeGrid)> = grids.iter().map(|(v, a, g)| (*v, *a, g)).collect();
+    let (cloud, poses, _) = register_grids(&refs, &axis, &crop, params)?;
+    Ok((cloud, poses))
 }
