@@ -18,7 +18,15 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     {
         opts = opts.with_units(&u);
     }
-    let result = mean_shift(&cloud, &MeanShiftParams { k: args.k, ..Default::default() });
+    let mut result = mean_shift(&cloud, &MeanShiftParams { k: args.k, ..Default::default() });
+    // Without input normals the kernels' normals have no side: orient them consistently over the
+    // cleaned cloud, the top facing up.
+    let mut parts = None;
+    if cloud.normals.is_none()
+        && let Some(normals) = result.cloud.normals.as_mut()
+    {
+        parts = Some(process::orient::orient_by_spanning_tree(&result.cloud.positions, normals, 12));
+    }
     rig::write_cloud(&args.out, &result.cloud, &opts)?;
     if let Some(path) = &args.outliers {
         let removed = (0..cloud.len()).filter(|&i| !result.kept[i]).map(|i| cloud.positions[i]).collect();
@@ -32,13 +40,16 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     } else {
         writeln!(
             o,
-            "{}: {} → {} points ({} outlier clusters removed), {:.1} s",
+            "{}: {} → {} points ({} outliers removed), {:.1} s",
             args.out.display(),
             r.points_in,
             r.points_out,
-            r.outliers_removed,
+            r.strays + r.outliers_removed,
             r.seconds_kernels + r.seconds_shift + r.seconds_cluster
         )?;
+        if let Some(parts) = parts {
+            writeln!(o, "  the input had no normals: oriented by a spanning tree ({parts} connected parts)")?;
+        }
     }
     Ok(())
 }

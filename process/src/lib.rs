@@ -40,6 +40,7 @@ pub mod laser_line;
 pub mod mean_shift;
 pub mod multiview;
 pub mod normals;
+pub mod orient;
 pub mod phase_shift;
 pub mod pipeline;
 pub mod placement;
