@@ -46,6 +46,7 @@ pub mod pipeline;
 pub mod placement;
 pub mod preview;
 pub mod projector_map;
+pub mod reconstruct;
 pub mod register_scan;
 pub mod spatial_order;
 pub mod structured_light;

@@ -244,20 +244,10 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
     let finals: Vec<Point3> = members.iter().map(|&i| moved[i].0).collect();
     let final_tree = PointTree::new(&finals);
     let pairs: Vec<Vec<usize>> = finals.par_iter().map(|p| final_tree.within(p, radius)).collect();
-    let mut parent: Vec<usize> = (0..finals.len()).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
+    let mut sets = rig::union_find::UnionFind::new(finals.len());
     for (i, near) in pairs.iter().enumerate() {
         for &j in near {
-            let (a, b) = (root(&mut parent, i), root(&mut parent, j));
-            if a != b {
-                parent[a.max(b)] = a.min(b);
-            }
+            sets.union(i, j);
         }
     }
     let mut index: HashMap<usize, usize> = HashMap::new();
@@ -266,7 +256,7 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
     let mut cluster_of = vec![None; moved.len()];
     for (m, &i) in members.iter().enumerate() {
         let (p, _, nearest, _) = moved[i];
-        let r = root(&mut parent, m);
+        let r = sets.find(m);
         let c = *index.entry(r).or_insert_with(|| {
             sums.push((Vector3::zeros(), 0, nearest));
             sums.len() - 1

@@ -87,4 +87,6 @@ pub use scan_folder::{Manifest, Method};
 
 /// Meshes and clouds by file extension.
 pub mod mesh_io;
+pub mod topology;
+pub mod union_find;
 pub use mesh_io::{MeshFormat, read_cloud, read_mesh, write_cloud, write_mesh};

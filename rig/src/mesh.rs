@@ -1,6 +1,6 @@
 //! Triangle meshes and polygon meshes (quads and n-gons).
 
-use crate::math::{Point3, Vector3};
+use crate::math::{Point3, Real, Vector3};
 use crate::point_cloud::Aabb;
 
 /// A triangle mesh: shared vertices and faces as three vertex indices, counter-clockwise seen from
@@ -16,6 +16,18 @@ pub struct TriMesh {
 }
 
 impl TriMesh {
+    /// The enclosed volume by the divergence theorem: positive for a closed mesh whose triangles face
+    /// outward (counter-clockwise seen from outside), negative for inward-facing ones.
+    pub fn signed_volume(&self) -> Real {
+        self.faces
+            .iter()
+            .map(|f| {
+                let [a, b, c] = f.map(|i| self.vertices[i as usize].coords);
+                a.dot(&b.cross(&c)) / 6.0
+            })
+            .sum()
+    }
+
     /// The axis-aligned bounding box, `None` without vertices.
     pub fn bounding_box(&self) -> Option<Aabb> {
         Aabb::of(&self.vertices)

@@ -88,14 +88,7 @@ mod tests {
     fn vase_is_closed_with_outward_normals() {
         let m = fluted_vase(120.0);
         // Signed volume by the divergence theorem is positive for outward-facing triangles.
-        let vol: Real = m
-            .faces
-            .iter()
-            .map(|f| {
-                let [a, b, c] = f.map(|i| m.vertices[i as usize].coords);
-                a.dot(&b.cross(&c)) / 6.0
-            })
-            .sum();
+        let vol = m.signed_volume();
         assert!(vol > 0.0);
         // V − E + F = 2 for a closed sphere-like surface: E = 3F/2.
         assert_eq!(m.vertices.len() as i64 - (3 * m.faces.len() / 2) as i64 + m.faces.len() as i64, 2);

@@ -1,0 +1,72 @@
+//! Dropping the small components a reconstruction leaves beside the surface: blobs around outliers,
+//! bubbles where an open scan's border lets the indicator cross its level.
+
+use rig::TriMesh;
+use rig::math::Real;
+use rig::union_find::UnionFind;
+
+/// Removes the faces (and then unused vertices) of every edge-connected component whose area is below
+/// `min_fraction` of the largest component's. Returns the number of components removed.
+pub fn prune_small_components(mesh: &mut TriMesh, min_fraction: Real) -> usize {
+    if mesh.faces.is_empty() || min_fraction <= 0.0 {
+        return 0;
+    }
+    let n = mesh.vertices.len();
+    let mut sets = UnionFind::new(n);
+    for f in &mesh.faces {
+        sets.union(f[0] as usize, f[1] as usize);
+        sets.union(f[0] as usize, f[2] as usize);
+    }
+    let mut area = vec![0.0; n];
+    let face_root: Vec<u32> = mesh.faces.iter().map(|f| sets.find(f[0] as usize) as u32).collect();
+    for (f, &r) in mesh.faces.iter().zip(&face_root) {
+        let [a, b, c] = f.map(|i| mesh.vertices[i as usize]);
+        area[r as usize] += (b - a).cross(&(c - a)).norm() / 2.0;
+    }
+    let largest = area.iter().copied().fold(0.0, Real::max);
+    let keep = |r: u32| area[r as usize] >= min_fraction * largest;
+    let removed = (0..n as u32).filter(|&r| area[r as usize] > 0.0 && !keep(r)).count();
+    if removed == 0 {
+        return 0;
+    }
+    let faces: Vec<[u32; 3]> = mesh.faces.iter().zip(&face_root).filter(|(_, r)| keep(**r)).map(|(f, _)| *f).collect();
+    // Compact the vertices, keeping their order.
+    let mut used = vec![u32::MAX; n];
+    for f in &faces {
+        for &v in f {
+            used[v as usize] = 0;
+        }
+    }
+    let mut vertices = Vec::new();
+    for (v, slot) in used.iter_mut().enumerate() {
+        if *slot == 0 {
+            *slot = vertices.len() as u32;
+            vertices.push(mesh.vertices[v]);
+        }
+    }
+    mesh.normals = mesh.normals.take().map(|ns| (0..n).filter(|&v| used[v] != u32::MAX).map(|v| ns[v]).collect());
+    mesh.faces = faces.into_iter().map(|f| f.map(|v| used[v as usize])).collect();
+    mesh.vertices = vertices;
+    removed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rig::math::Point3;
+
+    #[test]
+    fn the_small_tetrahedron_goes_and_the_big_one_stays() {
+        let tet = |s: Real, o: Real| -> Vec<Point3> {
+            vec![Point3::new(o, 0.0, 0.0), Point3::new(o + s, 0.0, 0.0), Point3::new(o, s, 0.0), Point3::new(o, 0.0, s)]
+        };
+        let mut vertices = tet(0.1, 5.0);
+        vertices.extend(tet(1.0, 0.0));
+        let faces = |b: u32| [[b, b + 2, b + 1], [b, b + 1, b + 3], [b, b + 3, b + 2], [b + 1, b + 2, b + 3]];
+        let mut mesh = TriMesh { vertices, faces: [faces(0), faces(4)].concat(), normals: None };
+        assert_eq!(prune_small_components(&mut mesh, 0.05), 1);
+        assert_eq!((mesh.vertices.len(), mesh.faces.len()), (4, 4));
+        assert_eq!(mesh.vertices[1], Point3::new(1.0, 0.0, 0.0));
+        assert!(mesh.faces.iter().flatten().all(|&v| v < 4));
+    }
+}
