@@ -35,6 +35,8 @@ pub enum Command {
     Register(RegisterArgs),
     /// Fuse a registered point cloud by mean shift: smooth it, cluster it, remove outliers (thesis ch. 3).
     Fuse(FuseArgs),
+    /// Reconstruct a watertight mesh from an oriented point cloud (thesis ch. 5).
+    Reconstruct(ReconstructArgs),
     /// Decode a folder of structured-light images made by other tools into a projector correspondence map.
     Decode(DecodeArgs),
     /// Simulate a 36-view scan of the built-in object and process it: the whole pipeline on a virtual rig.
@@ -170,6 +172,7 @@ pub enum StageArg {
     Merge,
     Register,
     Fuse,
+    Reconstruct,
 }
 
 #[derive(clap::Args, Debug)]
@@ -180,7 +183,7 @@ pub struct ProcessArgs {
     #[arg(long, short)]
     pub out: Option<PathBuf>,
     /// Stop after this stage.
-    #[arg(long, value_enum, default_value = "fuse")]
+    #[arg(long, value_enum, default_value = "reconstruct")]
     pub until: StageArg,
     /// Redo stages whose outputs are already current.
     #[arg(long)]
@@ -291,6 +294,33 @@ pub struct DenoiseArgs {
     /// Print the reports as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ReconstructArgs {
+    /// The oriented cloud (.ply or .obj with normals; `scanrig fuse` writes one).
+    pub input: PathBuf,
+    /// The mesh to write (.ply or .obj).
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Reconstruction method.
+    #[arg(long, value_enum, default_value = "fft")]
+    pub method: MethodArg,
+    /// Grid of 2^depth points per axis.
+    #[arg(long, default_value_t = process::reconstruct::global_fft::FftParams::default().depth)]
+    pub depth: u32,
+    /// Refuse grids needing more memory than this, GB.
+    #[arg(long, default_value_t = 8.0)]
+    pub memory_budget: f64,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MethodArg {
+    /// The global FFT method (Kazhdan 2005): one N³ grid.
+    Fft,
 }
 
 #[derive(clap::Args, Debug)]

@@ -71,6 +71,21 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             f.strays + f.outliers_removed
         );
     }
+    if let Some(r) = &report.reconstruct {
+        let mesh = rig::read_mesh(&processed.join("mesh.ply"))?.triangulate();
+        let t = rig::topology::topology(&mesh);
+        println!(
+            "  watertight mesh    {}  ({} triangles, {}³ FFT grid, cell {:.2} mm; {})",
+            processed.join("mesh.ply").display(),
+            r.triangles,
+            r.n,
+            r.cell,
+            match t.genus() {
+                Some(g) => format!("closed 2-manifold, {} component(s), genus {g}", t.components),
+                None => "NOT closed".to_string(),
+            }
+        );
+    }
     println!("  report             {}", processed.join("report.json").display());
     println!("  the ground-truth object is {}", scan.join("truth/object.ply").display());
     Ok(())

@@ -9,6 +9,7 @@ mod denoise_cmd;
 mod fuse_cmd;
 mod info;
 mod process_cmd;
+mod reconstruct_cmd;
 mod register_cmd;
 mod sim_cmd;
 
@@ -25,6 +26,7 @@ fn main() -> ExitCode {
         cli::Command::Decode(a) => decode_cmd::run(&a),
         cli::Command::Denoise(a) => denoise_cmd::run(&a),
         cli::Command::Fuse(a) => fuse_cmd::run(&a),
+        cli::Command::Reconstruct(a) => reconstruct_cmd::run(&a),
         cli::Command::Register(a) => register_cmd::run(&a),
         cli::Command::Demo(a) => demo::run(&a),
     };

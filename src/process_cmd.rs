@@ -16,6 +16,7 @@ pub fn params(args: &ProcessArgs) -> ProcessParams {
             StageArg::Merge => Stage::Merge,
             StageArg::Register => Stage::Register,
             StageArg::Fuse => Stage::Fuse,
+            StageArg::Reconstruct => Stage::Reconstruct,
         },
         denoise: if args.no_denoise { None } else { defaults.denoise },
         force: args.force,
@@ -79,6 +80,16 @@ pub fn run(args: &ProcessArgs) -> Result<()> {
                 f.points_out,
                 f.strays + f.outliers_removed,
                 f.seconds_kernels + f.seconds_shift + f.seconds_cluster
+            )?;
+        }
+        if let Some(r) = &report.reconstruct {
+            writeln!(
+                o,
+                "  mesh: {} triangles, {}³ grid (cell {:.3} mm), {:.1} s",
+                r.triangles,
+                r.n,
+                r.cell,
+                r.seconds_splat + r.seconds_fft + r.seconds_extract
             )?;
         }
         for s in &report.skipped {

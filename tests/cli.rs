@@ -40,7 +40,7 @@ fn help_lists_every_subcommand_with_one_line() {
     let o = scanrig(&[&"--help"]);
     assert!(o.status.success());
     let text = stdout(&o);
-    for cmd in ["info", "convert", "sim", "process", "denoise", "register", "fuse", "decode", "demo"] {
+    for cmd in ["info", "convert", "sim", "process", "denoise", "register", "fuse", "reconstruct", "decode", "demo"] {
         let line =
             text.lines().find(|l| l.trim_start().starts_with(cmd)).unwrap_or_else(|| panic!("{cmd} not in\n{text}"));
         assert!(line.len() > cmd.len() + 10, "{cmd} has no description: {line}");
@@ -240,9 +240,19 @@ fn demo_simulates_processes_and_prints_its_outputs() {
     let o = scanrig(&[&"demo", &"--views", &"2", &"--out", &out]);
     assert!(o.status.success(), "{}", stderr(&o));
     let text = stdout(&o);
-    for line in ["merged cloud", "registered cloud", "fused cloud", "range grids", "depth previews", "report"] {
+    for line in [
+        "merged cloud",
+        "registered cloud",
+        "fused cloud",
+        "watertight mesh",
+        "range grids",
+        "depth previews",
+        "report",
+    ] {
         assert!(text.contains(line), "{line} missing from\n{text}");
     }
+    let mesh = rig::read_mesh(&out.join("processed/mesh.ply")).unwrap().triangulate();
+    assert!(rig::topology::topology(&mesh).is_closed_oriented_manifold());
     let merged = rig::read_cloud(&out.join("processed/merged.ply")).unwrap();
     assert!(merged.len() > 10_000 && merged.normals.is_some() && merged.view_id.is_some());
     assert!(out.join("processed/preview/view_001_depth.png").is_file());
@@ -388,4 +398,39 @@ fn register_corrects_views_placed_by_a_miscalibrated_turntable_axis() {
     );
     assert!(after < 0.25 * before && after < 0.2, "before {before}, after {after}");
     assert!(scan.join("processed/registered.ply").is_file() && scan.join("processed/registered.poses.json").is_file());
+}
+
+#[test]
+fn reconstruct_meshes_an_oriented_cloud_and_refuses_one_without_normals() {
+    let d = Dir::new();
+    // A sphere of radius 20 mm, Fibonacci-sampled, normals outward.
+    let count = 5000;
+    let normals: Vec<rig::Vector3> = (0..count)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / count as f64;
+            let a = i as f64 * std::f64::consts::PI * (3.0 - 5f64.sqrt());
+            rig::Vector3::new((1.0 - z * z).sqrt() * a.cos(), (1.0 - z * z).sqrt() * a.sin(), z)
+        })
+        .collect();
+    let positions = normals.iter().map(|n| rig::Point3::from(n * 20.0)).collect();
+    let input = d.path("sphere.ply");
+    let cloud = rig::PointCloud { positions, normals: Some(normals), ..Default::default() };
+    rig::ply::write_cloud(&input, &cloud, &rig::ply::WriteOptions::default()).unwrap();
+    let out = d.path("sphere_mesh.ply");
+    let o = scanrig(&[&"reconstruct", &input, &"-o", &out, &"--depth", &"6"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("closed, oriented 2-manifold: 1 component(s), genus 0"), "{}", stdout(&o));
+    let mesh = rig::read_mesh(&out).unwrap().triangulate();
+    let worst = mesh.vertices.iter().map(|p| (p.coords.norm() - 20.0).abs()).fold(0.0, f64::max);
+    assert!(worst < 0.05 * 20.0, "{worst}");
+    // Without normals: refused, naming the file and the remedy.
+    let bare = d.path("bare.ply");
+    rig::ply::write_cloud(&bare, &rig::PointCloud::from_positions(cloud.positions.clone()), &Default::default())
+        .unwrap();
+    let o = scanrig(&[&"reconstruct", &bare, &"-o", &d.path("x.ply")]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("bare.ply") && stderr(&o).contains("no normals"), "{}", stderr(&o));
+    // A grid over the memory budget is refused before anything is allocated.
+    let o = scanrig(&[&"reconstruct", &input, &"-o", &d.path("y.ply"), &"--depth", &"10", &"--memory-budget", &"1"]);
+    assert!(!o.status.success() && stderr(&o).contains("over the 1.0 GB budget"), "{}", stderr(&o));
 }

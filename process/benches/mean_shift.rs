@@ -42,18 +42,10 @@ fn peak_mib() -> Option<f64> {
 }
 
 fn bunny(rng: &mut Rng) -> Option<PointCloud> {
-    let poses = fixtures::bunny_poses_mm()?;
-    let (mut positions, mut normals) = (Vec::new(), Vec::new());
-    for name in fixtures::BUNNY_SCANS {
-        let (pts, _) = fixtures::bunny_scan_mm(name)?;
-        let pose = poses[name];
-        let n = pca_normals(&pts, &PointTree::new(&pts), 10, |_| Vector3::z());
-        positions.extend(pts.iter().map(|p| pose * p));
-        normals.extend(n.iter().map(|n| pose.rotation * n));
-    }
-    add_outliers(&mut positions, &mut normals, 25_000, rng);
-    perturb_normals(&mut normals, rng);
-    Some(PointCloud { positions, normals: Some(normals), ..Default::default() })
+    let mut cloud = fixtures::bunny_aligned_mm(|p| pca_normals(p, &PointTree::new(p), 10, |_| Vector3::z()))?;
+    add_outliers(&mut cloud.positions, cloud.normals.as_mut()?, 25_000, rng);
+    perturb_normals(cloud.normals.as_mut()?, rng);
+    Some(cloud)
 }
 
 /// A sphere sampled at about 6 points per mm² (the bunny set's density) with 0.05 mm normal noise.

@@ -1,5 +1,5 @@
 //! `scanrig process`: a scan folder through the stages that exist — decode, triangulate (with grid
-//! normals), denoise, place by turntable pose and merge, register, fuse — each stage's output written atomically beside the scan
+//! normals), denoise, place by turntable pose and merge, register, fuse, reconstruct — each stage's output written atomically beside the scan
 //! and skipped when it is already there and newer than its inputs, so an interrupted run resumes.
 //!
 //! Output folder:
@@ -15,6 +15,7 @@
 //! registered.poses.json        each view's refined pose and how far it moved
 //! fused.ply                    mean-shift fusion of the registered (else merged) cloud: outliers
 //!                              removed, noise averaged out, oriented normals
+//! mesh.ply                     watertight surface of the fused cloud (global FFT, ch. 5)
 //! report.json                  what every stage did (the `ProcessReport` below)
 //! ```
 
@@ -51,6 +52,8 @@ pub enum Stage {
     Register,
     /// Mean-shift fusion (ch. 3).
     Fuse,
+    /// A watertight mesh of the fused cloud (ch. 5).
+    Reconstruct,
 }
 
 /// Everything `process_scan` can be told.
@@ -72,6 +75,8 @@ pub struct ProcessParams {
     pub register: crate::multiview::MultiViewParams,
     /// Mean-shift fusion.
     pub fuse: crate::mean_shift::MeanShiftParams,
+    /// Reconstruction.
+    pub reconstruct: crate::reconstruct::global_fft::FftParams,
     /// The last stage to run.
     pub until: Stage,
     /// Redo stages whose outputs are current.
@@ -89,7 +94,8 @@ impl Default for ProcessParams {
             normal_max_jump_mm: 2.0,
             register: crate::multiview::MultiViewParams::default(),
             fuse: crate::mean_shift::MeanShiftParams::default(),
-            until: Stage::Fuse,
+            reconstruct: crate::reconstruct::global_fft::FftParams::default(),
+            until: Stage::Reconstruct,
             force: false,
         }
     }
@@ -159,6 +165,9 @@ pub struct ProcessReport {
     /// What fusion did (absent where it did not run).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fuse: Option<crate::mean_shift::MeanShiftReport>,
+    /// What reconstruction did (absent where it did not run).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reconstruct: Option<crate::reconstruct::global_fft::FftReport>,
     /// Stages that were asked for but could not run here, with the reason.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub skipped: Vec<String>,
@@ -403,6 +412,18 @@ pub fn process_scan(
         }
         report.outputs.push("fused.ply".into());
         progress("fuse", 1, 1);
+        if params.until >= Stage::Reconstruct {
+            let mesh_path = out.join("mesh.ply");
+            if params.force || !is_current(&mesh_path, std::slice::from_ref(&path)) {
+                let fused = rig::read_cloud(&path)?;
+                let (mesh, r) = crate::reconstruct::global_fft::reconstruct_fft(&fused, &params.reconstruct)
+                    .map_err(|e| Error::Setup(format!("{}: {e}", path.display())))?;
+                rig::ply::write_mesh(&mesh_path, &mesh.to_poly(), &write_opts)?;
+                report.reconstruct = Some(r);
+            }
+            report.outputs.push("mesh.ply".into());
+            progress("reconstruct", 1, 1);
+        }
     }
     report.total_seconds = start.elapsed().as_secs_f64();
     report.outputs.push("report.json".into());

@@ -11,24 +11,15 @@ mod surface;
 
 #[test]
 fn bunny_with_25k_outliers_is_cleaned_and_smoothed() {
-    let (Some(poses), Some(zipper)) =
-        (fixtures::bunny_poses_mm(), fixtures::data_file("stanford-bunny/reconstruction/bun_zipper.ply"))
-    else {
+    let (Some(aligned), Some(zipper)) = (
+        fixtures::bunny_aligned_mm(|p| pca_normals(p, &PointTree::new(p), 10, |_| Vector3::z())),
+        fixtures::data_file("stanford-bunny/reconstruction/bun_zipper.ply"),
+    ) else {
         return;
     };
-    let mut positions = Vec::new();
-    let mut normals = Vec::new();
     let mut rng = fixtures::Rng::new(0x0f0f_1234);
     let mut uniform = move || rng.uniform();
-    for name in fixtures::BUNNY_SCANS {
-        let Some((pts, _)) = fixtures::bunny_scan_mm(name) else { return };
-        let pose = poses[name];
-        let n = pca_normals(&pts, &PointTree::new(&pts), 10, |_| Vector3::z());
-        for (p, n) in pts.iter().zip(&n) {
-            positions.push(pose * p);
-            normals.push(pose.rotation * n);
-        }
-    }
+    let (mut positions, mut normals) = (aligned.positions, aligned.normals.expect("normals"));
     let surface_points = positions.len();
     let (lo, hi) = positions.iter().fold((positions[0], positions[0]), |(lo, hi), p| (lo.inf(p), hi.sup(p)));
     for _ in 0..25_000 {

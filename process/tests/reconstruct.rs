@@ -99,20 +99,13 @@ fn torus_and_fertility_come_back_with_their_genus_within_a_cell() {
 
 #[test]
 fn bunny_scans_reconstruct_close_to_the_zipper_mesh() {
-    let (Some(poses), Some(zipper)) =
-        (fixtures::bunny_poses_mm(), fixtures::data_file("stanford-bunny/reconstruction/bun_zipper.ply"))
-    else {
+    // Sensor-oriented: each scan looks down its own −z, so normals face +z in its frame.
+    let (Some(cloud), Some(zipper)) = (
+        fixtures::bunny_aligned_mm(|p| pca_normals(p, &PointTree::new(p), 10, |_| Vector3::z())),
+        fixtures::data_file("stanford-bunny/reconstruction/bun_zipper.ply"),
+    ) else {
         return;
     };
-    let mut cloud = PointCloud { normals: Some(Vec::new()), ..Default::default() };
-    for name in fixtures::BUNNY_SCANS {
-        let Some((pts, _)) = fixtures::bunny_scan_mm(name) else { return };
-        let pose = poses[name];
-        // Sensor-oriented: each scan looks down its own −z, so normals face +z in its frame.
-        let n = pca_normals(&pts, &PointTree::new(&pts), 10, |_| Vector3::z());
-        cloud.positions.extend(pts.iter().map(|p| pose * p));
-        cloud.normals.as_mut().unwrap().extend(n.iter().map(|n| pose.rotation * n));
-    }
     let zipper = surface::zipper_mm(&zipper);
     let start = std::time::Instant::now();
     let mut params = FftParams { depth: 8, ..Default::default() };

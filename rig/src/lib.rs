@@ -86,6 +86,7 @@ pub mod scan_folder;
 pub use scan_folder::{Manifest, Method};
 
 /// Meshes and clouds by file extension.
+pub mod memory;
 pub mod mesh_io;
 pub mod topology;
 pub mod union_find;
