@@ -174,7 +174,8 @@ impl Cube {
 }
 
 /// χ on the cube's grid from oriented, area-weighted points (eqs. 5.16–5.17), with the report's splat
-/// and FFT timings filled in. χ is larger inside; its scale is arbitrary.
+/// and FFT timings filled in. χ jumps by about 1 from outside to inside (its mean over the cube is 0,
+/// as the DC term is dropped); areas in the cloud's units squared make that scale physical.
 pub fn indicator(
     points: &[Point3],
     normals: &[Vector3],
@@ -237,6 +238,11 @@ pub fn indicator(
     drop(spectrum);
     let t = Instant::now();
     fft.inverse(&mut chi_hat, &mut real);
+    // The unnormalised inverse DFT is the Fourier series times the cube's volume (the splat puts
+    // V's integral, not its density, in each cell): dividing gives χ in physical units, a jump of
+    // about 1 across the surface, so local solutions on different cubes (AdFFT) agree in scale.
+    let volume = (size * size * size) as f32;
+    real.par_iter_mut().for_each(|v| *v /= volume);
     fft_seconds += t.elapsed().as_secs_f64();
     report.seconds_splat += splat_seconds;
     report.seconds_fft += fft_seconds;
@@ -323,6 +329,23 @@ mod tests {
         assert_eq!((t.genus(), t.components), (Some(0), 1));
         let worst = mesh.vertices.iter().map(|p| (p.coords.norm() - 40.0).abs()).fold(0.0, Real::max);
         assert!(worst <= report.cell, "Hausdorff {worst} vs cell {}", report.cell);
+    }
+
+    #[test]
+    fn chi_jumps_by_one_across_the_surface_whatever_the_cube() {
+        // The same sphere in two cubes of different size and resolution: χ(inside) − χ(outside) ≈ 1
+        // in both, which is what lets AdFFT blend local solutions.
+        let cloud = sphere(20_000, 10.0);
+        let normals = cloud.normals.as_ref().unwrap();
+        let weights = area_weights(&cloud.positions, 8);
+        for (size, n) in [(30.0, 64), (60.0, 32)] {
+            let cube = Cube { origin: Point3::new(-size / 2.0, -size / 2.0, -size / 2.0), size, n };
+            let mut report = FftReport::default();
+            let chi = indicator(&cloud.positions, normals, &weights, &cube, 0.5, &mut report);
+            let at = |p: Point3| sample(&chi, n, cube.origin, cube.cell(), &p);
+            let jump = at(Point3::origin()) - at(Point3::new(0.0, 0.0, 13.5));
+            assert!((jump - 1.0).abs() < 0.08, "cube {size}: jump {jump}");
+        }
     }
 
     #[test]

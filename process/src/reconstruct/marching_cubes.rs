@@ -145,6 +145,14 @@ impl GridFrame {
 /// (by the right-hand rule) point outward. `value(i, j, k)` is called once per grid point; NaN counts
 /// as outside.
 pub fn marching_cubes(frame: &GridFrame, iso: f32, value: impl Fn(usize, usize, usize) -> f32 + Sync) -> TriMesh {
+    let [nx, ny, _] = frame.dims;
+    marching_cubes_by_plane(frame, iso, |k| (0..nx * ny).into_par_iter().map(|ij| value(ij % nx, ij / nx, k)).collect())
+}
+
+/// [`marching_cubes`] with the values supplied a z-plane at a time: `plane(k)` returns the nx·ny values
+/// of plane k (x fastest) and is called for k = 0, 1, … in order, once each — so a caller can build
+/// each plane from sources it loads and drops as the sweep moves on.
+pub fn marching_cubes_by_plane(frame: &GridFrame, iso: f32, mut plane: impl FnMut(usize) -> Vec<f32>) -> TriMesh {
     let [nx, ny, nz] = frame.dims;
     let mut mesh = TriMesh::default();
     if nx < 2 || ny < 2 || nz < 2 {
@@ -152,7 +160,6 @@ pub fn marching_cubes(frame: &GridFrame, iso: f32, value: impl Fn(usize, usize, 
     }
     let table = table();
     let edges = edges();
-    let plane = |k: usize| -> Vec<f32> { (0..nx * ny).into_par_iter().map(|ij| value(ij % nx, ij / nx, k)).collect() };
     const NONE: u32 = u32::MAX;
     // Vertex ids of the edges of the current cube layer: x- and y-edges in the lower and upper plane,
     // z-edges between them. Upper-plane ids become the next layer's lower-plane ids.

@@ -8,7 +8,29 @@ use rig::union_find::UnionFind;
 /// Removes the faces (and then unused vertices) of every edge-connected component whose area is below
 /// `min_fraction` of the largest component's. Returns the number of components removed.
 pub fn prune_small_components(mesh: &mut TriMesh, min_fraction: Real) -> usize {
-    if mesh.faces.is_empty() || min_fraction <= 0.0 {
+    if min_fraction <= 0.0 {
+        return 0;
+    }
+    prune_components(mesh, |area, largest, _| area >= min_fraction * largest)
+}
+
+/// Removes every component fewer than half of whose vertices lie within `max_distance` of a sample:
+/// surface the data never asked for (AdFFT's local solids close themselves away from their points).
+/// Returns the number removed.
+pub fn prune_components_away_from(
+    mesh: &mut TriMesh,
+    samples: &crate::normals::PointTree,
+    max_distance: Real,
+) -> usize {
+    let near: Vec<bool> = mesh.vertices.iter().map(|p| samples.nearest(p).1 <= max_distance * max_distance).collect();
+    prune_components(mesh, |_, _, vertices| {
+        vertices.iter().filter(|&&v| near[v as usize]).count() * 2 >= vertices.len()
+    })
+}
+
+/// Keeps the components for which `keep(area, largest area, vertex ids)` holds.
+fn prune_components(mesh: &mut TriMesh, keep_part: impl Fn(Real, Real, &[u32]) -> bool) -> usize {
+    if mesh.faces.is_empty() {
         return 0;
     }
     let n = mesh.vertices.len();
@@ -24,8 +46,13 @@ pub fn prune_small_components(mesh: &mut TriMesh, min_fraction: Real) -> usize {
         area[r as usize] += (b - a).cross(&(c - a)).norm() / 2.0;
     }
     let largest = area.iter().copied().fold(0.0, Real::max);
-    let keep = |r: u32| area[r as usize] >= min_fraction * largest;
-    let removed = (0..n as u32).filter(|&r| area[r as usize] > 0.0 && !keep(r)).count();
+    let mut members: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for v in 0..n {
+        members[sets.find(v)].push(v as u32);
+    }
+    let verdict: Vec<bool> = (0..n).map(|r| area[r] > 0.0 && keep_part(area[r], largest, &members[r])).collect();
+    let keep = |r: u32| verdict[r as usize];
+    let removed = (0..n).filter(|&r| area[r] > 0.0 && !verdict[r]).count();
     if removed == 0 {
         return 0;
     }

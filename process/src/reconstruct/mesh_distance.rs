@@ -1,0 +1,134 @@
+//! Distances from points to a triangle mesh: AdFFT's subdivision test (the Hausdorff distance of a
+//! cell's samples to its local surface) and accuracy measurements against reference meshes.
+
+use rig::TriMesh;
+use rig::math::{Point3, Real};
+use std::collections::HashMap;
+
+/// The closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
+pub fn closest_on_triangle(p: &Point3, a: &Point3, b: &Point3, c: &Point3) -> Point3 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(&ap), ac.dot(&ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return *a;
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(&bp), ac.dot(&bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return *b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return a + ab * (d1 / (d1 - d3));
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(&cp), ac.dot(&cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return *c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return a + ac * (d2 / (d2 - d6));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    a + ab * (vb * denom) + ac * (vc * denom)
+}
+
+/// Point-to-mesh distances through a uniform grid of triangle bounding boxes.
+pub struct MeshDistance {
+    tris: Vec<[Point3; 3]>,
+    cell: Real,
+    cells: HashMap<[i64; 3], Vec<u32>>,
+    /// Grid keys spanned by the mesh, for ending the ring search.
+    lo: [i64; 3],
+    hi: [i64; 3],
+}
+
+impl MeshDistance {
+    /// Indexes `mesh` with grid cells of edge `cell` (about the triangles' size, or the distances
+    /// expected, whichever is larger).
+    pub fn new(mesh: &TriMesh, cell: Real) -> Self {
+        let tris: Vec<[Point3; 3]> = mesh.faces.iter().map(|f| f.map(|i| mesh.vertices[i as usize])).collect();
+        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        let (mut lo, mut hi) = ([i64::MAX; 3], [i64::MIN; 3]);
+        for (t, tri) in tris.iter().enumerate() {
+            let a = key(&tri[0].inf(&tri[1]).inf(&tri[2]), cell);
+            let b = key(&tri[0].sup(&tri[1]).sup(&tri[2]), cell);
+            for d in 0..3 {
+                lo[d] = lo[d].min(a[d]);
+                hi[d] = hi[d].max(b[d]);
+            }
+            for x in a[0]..=b[0] {
+                for y in a[1]..=b[1] {
+                    for z in a[2]..=b[2] {
+                        cells.entry([x, y, z]).or_default().push(t as u32);
+                    }
+                }
+            }
+        }
+        MeshDistance { tris, cell, cells, lo, hi }
+    }
+
+    /// The distance from `p` to the mesh (infinite for an empty mesh). Searches rings of grid cells
+    /// outward until the nearest triangle found is closer than the unsearched cells can be.
+    pub fn distance(&self, p: &Point3) -> Real {
+        if self.tris.is_empty() {
+            return Real::INFINITY;
+        }
+        let k = key(p, self.cell);
+        let mut best = Real::INFINITY;
+        for ring in 0i64.. {
+            for dx in -ring..=ring {
+                for dy in -ring..=ring {
+                    for dz in -ring..=ring {
+                        if dx.abs().max(dy.abs()).max(dz.abs()) != ring {
+                            continue;
+                        }
+                        for &t in self.cells.get(&[k[0] + dx, k[1] + dy, k[2] + dz]).into_iter().flatten() {
+                            let [a, b, c] = &self.tris[t as usize];
+                            best = best.min((closest_on_triangle(p, a, b, c) - p).norm());
+                        }
+                    }
+                }
+            }
+            // Cells beyond this ring are at least `ring · cell` away.
+            let beyond_mesh = (0..3).all(|d| k[d] - ring <= self.lo[d] && k[d] + ring >= self.hi[d]);
+            if best <= ring as Real * self.cell || beyond_mesh {
+                return best;
+            }
+        }
+        unreachable!("the ring search ends once it spans the mesh")
+    }
+}
+
+fn key(p: &Point3, cell: Real) -> [i64; 3] {
+    [(p.x / cell).floor() as i64, (p.y / cell).floor() as i64, (p.z / cell).floor() as i64]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distances_to_a_square_match_the_geometry() {
+        let mesh = TriMesh {
+            vertices: vec![
+                Point3::new(0.0, 0.0, 0.0),
+                Point3::new(1.0, 0.0, 0.0),
+                Point3::new(1.0, 1.0, 0.0),
+                Point3::new(0.0, 1.0, 0.0),
+            ],
+            faces: vec![[0, 1, 2], [0, 2, 3]],
+            normals: None,
+        };
+        let d = MeshDistance::new(&mesh, 0.25);
+        assert!((d.distance(&Point3::new(0.5, 0.5, 0.3)) - 0.3).abs() < 1e-12);
+        assert!((d.distance(&Point3::new(2.0, 0.5, 0.0)) - 1.0).abs() < 1e-12);
+        // Far away: the ring search still finds the corner.
+        assert!((d.distance(&Point3::new(-30.0, -40.0, 0.0)) - 50.0).abs() < 1e-9);
+    }
+}
