@@ -306,9 +306,13 @@ pub struct ReconstructArgs {
     /// Reconstruction method.
     #[arg(long, value_enum, default_value = "fft")]
     pub method: MethodArg,
-    /// Grid of 2^depth points per axis.
+    /// Grid of 2^depth points per axis (AdFFT: the equivalent global grid).
     #[arg(long, default_value_t = process::reconstruct::global_fft::FftParams::default().depth)]
     pub depth: u32,
+    /// AdFFT: split octree cells whose samples lie farther than this from their local surface on
+    /// average (cloud units; default half a grid cell).
+    #[arg(long)]
+    pub error: Option<f64>,
     /// Refuse grids needing more memory than this, GB.
     #[arg(long, default_value_t = 8.0)]
     pub memory_budget: f64,
@@ -321,6 +325,8 @@ pub struct ReconstructArgs {
 pub enum MethodArg {
     /// The global FFT method (Kazhdan 2005): one N³ grid.
     Fft,
+    /// Adaptive FFT with partition of unity (thesis 5.3): local solutions, memory along one plane.
+    Adfft,
 }
 
 #[derive(clap::Args, Debug)]

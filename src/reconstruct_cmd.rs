@@ -2,6 +2,7 @@
 
 use crate::cli::{MethodArg, ReconstructArgs};
 use anyhow::{Context, Result};
+use process::reconstruct::adfft::{AdFftParams, reconstruct_adfft};
 use process::reconstruct::global_fft::{FftParams, reconstruct_fft};
 use rig::ply::WriteOptions;
 use rig::topology::topology;
@@ -16,11 +17,26 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
         opts = opts.with_units(&u);
     }
     let start = std::time::Instant::now();
-    let (mesh, report) = match args.method {
+    let context = || format!("reconstructing {}", args.input.display());
+    anyhow::ensure!(
+        args.error.is_none() || args.method == MethodArg::Adfft,
+        "--error steers AdFFT's octree; the global method (--method fft) has none"
+    );
+    let (mesh, report, patches) = match args.method {
         MethodArg::Fft => {
             let params =
                 FftParams { depth: args.depth, memory_budget: (args.memory_budget * 1e9) as u64, ..Default::default() };
-            reconstruct_fft(&cloud, &params).with_context(|| format!("reconstructing {}", args.input.display()))?
+            let (mesh, r) = reconstruct_fft(&cloud, &params).with_context(context)?;
+            (mesh, serde_json::to_value(&r)?, None)
+        }
+        MethodArg::Adfft => {
+            if let Some(e) = args.error {
+                anyhow::ensure!(e > 0.0 && e.is_finite(), "--error must be a positive distance, got {e}");
+            }
+            let params = AdFftParams { depth: args.depth, error: args.error, ..Default::default() };
+            let (mesh, r) = reconstruct_adfft(&cloud, &params).with_context(context)?;
+            let patches = r.leaves();
+            (mesh, serde_json::to_value(&r)?, Some(patches))
         }
     };
     let seconds = start.elapsed().as_secs_f64();
@@ -41,13 +57,14 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
     } else {
         writeln!(
             o,
-            "{}: {} vertices, {} triangles from {} points; {}³ grid (cell {:.4}), {:.2} s, peak memory {}",
+            "{}: {} vertices, {} triangles from {} points; {}³ grid (cell {:.4}){}, {:.2} s, peak memory {}",
             args.out.display(),
             mesh.vertices.len(),
             mesh.faces.len(),
             cloud.len(),
-            report.n,
-            report.cell,
+            report["n"],
+            report["cell"].as_f64().unwrap_or(f64::NAN),
+            patches.map_or(String::new(), |p| format!(", {p} patches")),
             seconds,
             peak.map_or("unknown".into(), |b| format!("{:.0} MB", b as f64 / 1e6))
         )?;

@@ -423,6 +423,12 @@ fn reconstruct_meshes_an_oriented_cloud_and_refuses_one_without_normals() {
     let mesh = rig::read_mesh(&out).unwrap().triangulate();
     let worst = mesh.vertices.iter().map(|p| (p.coords.norm() - 20.0).abs()).fold(0.0, f64::max);
     assert!(worst < 0.05 * 20.0, "{worst}");
+    // AdFFT on the same cloud: closed, on the sphere, and it reports its patches.
+    let o = scanrig(&[&"reconstruct", &input, &"-o", &out, &"--method", &"adfft", &"--depth", &"7"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("patches") && stdout(&o).contains("genus 0"), "{}", stdout(&o));
+    let o = scanrig(&[&"reconstruct", &input, &"-o", &out, &"--error", &"0.1"]);
+    assert!(!o.status.success() && stderr(&o).contains("--error steers AdFFT"), "{}", stderr(&o));
     // Without normals: refused, naming the file and the remedy.
     let bare = d.path("bare.ply");
     rig::ply::write_cloud(&bare, &rig::PointCloud::from_positions(cloud.positions.clone()), &Default::default())

@@ -452,19 +452,7 @@ mod tests {
 
     #[test]
     fn a_sphere_comes_back_closed_and_on_its_radius() {
-        let count = 40_000;
-        let normals: Vec<Vector3> = (0..count)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as Real + 0.5) / count as Real;
-                let a = i as Real * std::f64::consts::PI * (3.0 - 5f64.sqrt());
-                Vector3::new((1.0 - z * z).sqrt() * a.cos(), (1.0 - z * z).sqrt() * a.sin(), z)
-            })
-            .collect();
-        let cloud = PointCloud {
-            positions: normals.iter().map(|n| Point3::from(n * 40.0)).collect(),
-            normals: Some(normals),
-            ..Default::default()
-        };
+        let cloud = crate::reconstruct::global_fft::tests::sphere(40_000, 40.0);
         let (mesh, report) = reconstruct_adfft(&cloud, &AdFftParams { depth: 7, ..Default::default() }).unwrap();
         let t = topology(&mesh);
         assert!(t.is_closed_oriented_manifold(), "{t:?}");

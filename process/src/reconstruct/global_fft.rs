@@ -298,12 +298,12 @@ pub fn reconstruct_fft(cloud: &PointCloud, params: &FftParams) -> Result<(TriMes
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use rig::topology::topology;
 
     /// Points on a sphere of radius r (Fibonacci lattice) with outward normals.
-    fn sphere(count: usize, r: Real) -> PointCloud {
+    pub(crate) fn sphere(count: usize, r: Real) -> PointCloud {
         let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
         let normals: Vec<Vector3> = (0..count)
             .map(|i| {
