@@ -57,7 +57,9 @@ pub struct AdFftParams {
     /// Components under this fraction of the largest's area are dropped.
     pub min_component: Real,
     /// The coarse global solution behind the leaves: its grid depth and its blending weight (a leaf's
-    /// weight is 1 at its centre).
+    /// weight is 1 at its centre). On the bunny at 512³, weights 0.01 / 0.05 / 0.15 / 0.3 gave a mean
+    /// of accuracy and completeness of 0.0644 / 0.0628 / 0.0593 / 0.0593 mm: the smooth coarse χ
+    /// steadies the level where neighbouring leaves disagree.
     pub coarse_depth: u32,
     /// See `coarse_depth`.
     pub coarse_weight: Real,
@@ -77,7 +79,7 @@ impl Default for AdFftParams {
             area_k: 8,
             min_component: 0.01,
             coarse_depth: 6,
-            coarse_weight: 0.05,
+            coarse_weight: 0.15,
         }
     }
 }

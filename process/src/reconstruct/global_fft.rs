@@ -117,22 +117,33 @@ pub fn bounding_cube(points: &[Point3], padding: Real) -> (Point3, Real) {
     (centre - Vector3::repeat(size / 2.0), size)
 }
 
-/// The area each sample stands for: the disc out to its k-th neighbour, shared by the k samples in it.
-/// Evens out overlapping scans, which would otherwise pull the iso-level toward the doubly sampled parts.
+/// The area each sample stands for: the disc out to its k-th neighbour, shared by the k samples in it,
+/// at most a few times the median. Evens out overlapping scans, which would otherwise pull the
+/// iso-level toward the doubly sampled parts.
 pub fn area_weights(points: &[Point3], k: usize) -> Vec<Real> {
     if k == 0 || points.len() <= k {
         return vec![1.0; points.len()];
     }
     let tree = PointTree::new(points);
-    points
+    let mut w: Vec<Real> = points
         .par_iter()
         .map(|p| {
             let nb = tree.nearest_k(p, k + 1);
             let r2 = (points[*nb.last().expect("k + 1 ≥ 1")] - p).norm_squared();
             std::f64::consts::PI * r2 / k as Real
         })
-        .collect()
+        .collect();
+    // An isolated point (an outlier) has a huge disc; capped at a few times the median, it cannot
+    // outweigh the surface around it.
+    let mut sorted = w.clone();
+    sorted.sort_by(Real::total_cmp);
+    let cap = WEIGHT_CAP * sorted[sorted.len() / 2];
+    w.iter_mut().for_each(|x| *x = x.min(cap));
+    w
 }
+
+/// Area weights are capped at this multiple of their median.
+const WEIGHT_CAP: Real = 4.0;
 
 /// Trilinear weights of a point at continuous grid coordinates `u`: the lower corner and the 8 weights.
 fn trilinear(u: Vector3) -> ([isize; 3], [Real; 8]) {

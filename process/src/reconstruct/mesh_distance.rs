@@ -74,14 +74,29 @@ impl MeshDistance {
     }
 
     /// The distance from `p` to the mesh (infinite for an empty mesh). Searches rings of grid cells
-    /// outward until the nearest triangle found is closer than the unsearched cells can be.
+    /// outward until the nearest triangle found is closer than the unsearched cells can be; far from
+    /// the mesh, where the rings would hold more cells than there are triangles, it checks every
+    /// triangle instead.
     pub fn distance(&self, p: &Point3) -> Real {
+        self.distance_up_to(p, Real::INFINITY)
+    }
+
+    /// Like [`distance`](Self::distance), but stops searching at `limit`: returns the distance when it
+    /// is at most `limit`, otherwise some value above `limit` (possibly infinite).
+    pub fn distance_up_to(&self, p: &Point3, limit: Real) -> Real {
         if self.tris.is_empty() {
             return Real::INFINITY;
         }
         let k = key(p, self.cell);
         let mut best = Real::INFINITY;
         for ring in 0i64.. {
+            if (ring - 1) as Real * self.cell > limit {
+                return best;
+            }
+            if ((2 * ring + 1) as usize).pow(3) > 8 * self.tris.len() {
+                let all = self.tris.iter().map(|[a, b, c]| (closest_on_triangle(p, a, b, c) - p).norm());
+                return all.fold(best, Real::min);
+            }
             for dx in -ring..=ring {
                 for dy in -ring..=ring {
                     for dz in -ring..=ring {
