@@ -127,6 +127,21 @@ fn bunny_scans_reconstruct_close_to_the_zipper_mesh() {
         return;
     };
     let zipper = surface::zipper_mm(&zipper);
+    // The input's premise: sensor-oriented normals agree with the reference surface's side (the
+    // nearest zipper triangle's normal) for 99.98 % of points.
+    let reference = surface::SurfaceDistance::new(&zipper, 1.0);
+    let normals = cloud.normals.as_ref().unwrap();
+    let agree = (0..cloud.len())
+        .step_by(7)
+        .filter(|&i| {
+            reference
+                .nearest(&cloud.positions[i])
+                .is_some_and(|(_, t)| reference.triangle_normal(t).dot(&normals[i]) > 0.0)
+        })
+        .count();
+    let tested = cloud.len().div_ceil(7);
+    eprintln!("input normals agreeing with the reference: {:.3} % of {tested}", 100.0 * agree as Real / tested as Real);
+    assert!(agree as Real >= 0.999 * tested as Real, "{agree}/{tested}");
     let input = PointTree::new(&cloud.positions);
     let mut means = Vec::new();
     for (method, depth) in [("global FFT", 8), ("AdFFT", 8), ("AdFFT", 9)] {

@@ -84,18 +84,31 @@ impl MeshDistance {
     /// Like [`distance`](Self::distance), but stops searching at `limit`: returns the distance when it
     /// is at most `limit`, otherwise some value above `limit` (possibly infinite).
     pub fn distance_up_to(&self, p: &Point3, limit: Real) -> Real {
-        if self.tris.is_empty() {
-            return Real::INFINITY;
-        }
+        self.nearest_up_to(p, limit).map_or(Real::INFINITY, |(d, _)| d)
+    }
+
+    /// The nearest triangle (index into the mesh's faces) and its distance; `None` for an empty mesh.
+    pub fn nearest(&self, p: &Point3) -> Option<(Real, usize)> {
+        self.nearest_up_to(p, Real::INFINITY)
+    }
+
+    fn nearest_up_to(&self, p: &Point3, limit: Real) -> Option<(Real, usize)> {
+        let mut best: Option<(Real, usize)> = None;
+        let consider = |t: usize, best: &mut Option<(Real, usize)>| {
+            let [a, b, c] = &self.tris[t];
+            let d = (closest_on_triangle(p, a, b, c) - p).norm();
+            if best.is_none_or(|(bd, _)| d < bd) {
+                *best = Some((d, t));
+            }
+        };
         let k = key(p, self.cell);
-        let mut best = Real::INFINITY;
         for ring in 0i64.. {
-            if (ring - 1) as Real * self.cell > limit {
-                return best;
+            if self.tris.is_empty() || (ring - 1) as Real * self.cell > limit {
+                break;
             }
             if ((2 * ring + 1) as usize).pow(3) > 8 * self.tris.len() {
-                let all = self.tris.iter().map(|[a, b, c]| (closest_on_triangle(p, a, b, c) - p).norm());
-                return all.fold(best, Real::min);
+                (0..self.tris.len()).for_each(|t| consider(t, &mut best));
+                break;
             }
             for dx in -ring..=ring {
                 for dy in -ring..=ring {
@@ -104,19 +117,24 @@ impl MeshDistance {
                             continue;
                         }
                         for &t in self.cells.get(&[k[0] + dx, k[1] + dy, k[2] + dz]).into_iter().flatten() {
-                            let [a, b, c] = &self.tris[t as usize];
-                            best = best.min((closest_on_triangle(p, a, b, c) - p).norm());
+                            consider(t as usize, &mut best);
                         }
                     }
                 }
             }
             // Cells beyond this ring are at least `ring · cell` away.
             let beyond_mesh = (0..3).all(|d| k[d] - ring <= self.lo[d] && k[d] + ring >= self.hi[d]);
-            if best <= ring as Real * self.cell || beyond_mesh {
-                return best;
+            if best.is_some_and(|(d, _)| d <= ring as Real * self.cell) || beyond_mesh {
+                break;
             }
         }
-        unreachable!("the ring search ends once it spans the mesh")
+        best
+    }
+
+    /// The unit normal of triangle `t` (counter-clockwise vertices facing the viewer).
+    pub fn triangle_normal(&self, t: usize) -> rig::math::Vector3 {
+        let [a, b, c] = &self.tris[t];
+        (b - a).cross(&(c - a)).normalize()
     }
 }
 
