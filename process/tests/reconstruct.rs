@@ -174,7 +174,7 @@ fn bunny_scans_reconstruct_close_to_the_zipper_mesh() {
         );
         means.push(((am + cm) / 2.0, t));
     }
-    // Measured: global 256³ 0.0635 mm, AdFFT 256³ 0.0687, AdFFT 512³ 0.0593 (screened Poisson at 256³:
+    // Measured: global 256³ 0.0617 mm, AdFFT 256³ 0.0667, AdFFT 512³ 0.0587 (screened Poisson at 256³:
     // 0.054). The bound on global leaves room for platform differences, not for a regression; AdFFT
     // at 512³ must beat global at 256³ (issue 9, acceptance 2).
     for (_, t) in &means {
