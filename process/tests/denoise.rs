@@ -377,8 +377,23 @@ fn temporal_filtering_steadies_a_sequence_without_losing_accuracy() {
             (t, noisy_grid)
         })
         .collect();
-    let wall: Vec<bool> = (0..frames[0].0.grid.points.len())
+    let on_wall: Vec<bool> = (0..frames[0].0.grid.points.len())
         .map(|i| frames.iter().all(|(t, _)| t.grid.valid[i] && (t.grid.points[i].z - 480.0).abs() < 1e-6))
+        .collect();
+    // Static surface: wall pixels whose whole filter support (the 7 × 7 window grown by the 5 × 5
+    // patch) is wall in every frame — nearer the silhouette the turning object passes through it.
+    let (gw, gh) = (frames[0].0.grid.width as isize, frames[0].0.grid.height as isize);
+    let reach = 5isize;
+    let wall: Vec<bool> = (0..on_wall.len())
+        .map(|i| {
+            let (c, r) = (i as isize % gw, i as isize / gw);
+            (-reach..=reach).all(|dr| {
+                (-reach..=reach).all(|dc| {
+                    let (cc, rr) = (c + dc, r + dr);
+                    cc >= 0 && rr >= 0 && cc < gw && rr < gh && on_wall[(rr * gw + cc) as usize]
+                })
+            })
+        })
         .collect();
     let grids: Vec<RangeGrid> = frames.iter().map(|f| f.1.clone()).collect();
     let params = DenoiseParams::default();
@@ -405,8 +420,8 @@ fn temporal_filtering_steadies_a_sequence_without_losing_accuracy() {
         flicker(&grids),
         ft / fs
     );
-    // Issue 7 asks for flicker ≤ 0.5 × per-frame filtering; eq. 4.6's frame weights give 0.82 × at ±1 frame
-    // (0.78 × at ±3, 0.83 × with two passes), so this guards the gain until the target is met.
-    assert!(ft < 0.9 * fs, "flicker ratio {}", ft / fs);
+    // Issue 7, acceptance 3: flicker ≤ 0.5 × per-frame filtering (measured 0.41 × with directions from
+    // ±2 frames; 0.82 × when each frame took its own normals), with RMS error no worse.
+    assert!(ft <= 0.5 * fs, "flicker ratio {}", ft / fs);
     assert!(et <= es * 1.001, "temporal RMS {et} vs per-frame {es}");
 }

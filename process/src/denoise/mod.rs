@@ -64,6 +64,11 @@ pub struct DenoiseParams {
     pub normal_window: usize,
     /// Seed of the bandwidth samples.
     pub seed: u64,
+    /// Sequences: displacement directions come from the mean of the frames within this many of the
+    /// current one (at least the filter's own span). Normals of one noisy frame tilt from frame to
+    /// frame and push points sideways; on the test wall, flicker against per-frame filtering was
+    /// 0.82 × from single-frame normals, 0.49 × / 0.41 × / 0.38 × from means over ±1 / ±2 / ±3.
+    pub direction_frames: usize,
 }
 
 impl Default for DenoiseParams {
@@ -77,6 +82,7 @@ impl Default for DenoiseParams {
             bandwidth: None,
             normal_window: 1,
             seed: 1,
+            direction_frames: 2,
         }
     }
 }
