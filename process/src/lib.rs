@@ -48,6 +48,7 @@ pub mod preview;
 pub mod projector_map;
 pub mod reconstruct;
 pub mod register_scan;
+pub mod remesh;
 pub mod spatial_order;
 pub mod structured_light;
 pub mod triangulate;

@@ -1,0 +1,183 @@
+//! Harmonic and quasi-harmonic scalar fields on a triangle mesh (thesis eqs. 6.2 and 6.4).
+//!
+//! `div(c ∇u) = 0` with `u` prescribed at some vertices, discretised with linear finite elements: the
+//! cotangent Laplacian, each face's contribution scaled by its conductivity `c_f` (eq. 6.4; `c ≡ 1` is
+//! the harmonic field of eq. 6.2). Prescribed vertices are eliminated and the remaining symmetric
+//! positive definite system is solved by faer's sparse Cholesky. Boundaries without prescribed values
+//! get the natural (Neumann, no-flux) condition.
+
+use faer::Side;
+use faer::prelude::*;
+use faer::sparse::{SparseColMat, Triplet};
+use rig::TriMesh;
+use rig::math::{Real, Vector3};
+
+/// Why a field could not be solved.
+#[derive(Debug, thiserror::Error)]
+pub enum FieldError {
+    /// Nothing is prescribed: the field is only defined up to a constant.
+    #[error("no vertex has a prescribed value; at least one is needed")]
+    NoConstraints,
+    /// A prescribed vertex index is out of range.
+    #[error("prescribed vertex {0} is not in the mesh ({1} vertices)")]
+    BadVertex(usize, usize),
+    /// The conductivity list does not have one value per face, or has a negative or non-finite one.
+    #[error("conductivity: {0}")]
+    Conductivity(String),
+    /// A part of the mesh has no prescribed vertex, or the system is otherwise singular.
+    #[error("the system is singular: every connected part of the mesh needs a prescribed vertex ({0})")]
+    Singular(String),
+}
+
+/// A conductivity this small relative to the largest stands in for 0 (an insulator), which would
+/// leave the vertices inside the region without an equation.
+const INSULATOR: Real = 1e-9;
+
+/// Solves `div(c ∇u) = 0` with `u[v] = value` for every `(v, value)` in `fixed`; `conductivity` is one
+/// non-negative value per face (`None`: all 1). Returns one value per vertex.
+pub fn harmonic_field(
+    mesh: &TriMesh,
+    conductivity: Option<&[Real]>,
+    fixed: &[(usize, Real)],
+) -> Result<Vec<Real>, FieldError> {
+    let n = mesh.vertices.len();
+    if fixed.is_empty() {
+        return Err(FieldError::NoConstraints);
+    }
+    if let Some(&(v, _)) = fixed.iter().find(|(v, _)| *v >= n) {
+        return Err(FieldError::BadVertex(v, n));
+    }
+    if let Some(c) = conductivity {
+        if c.len() != mesh.faces.len() {
+            return Err(FieldError::Conductivity(format!("{} values for {} faces", c.len(), mesh.faces.len())));
+        }
+        if let Some((f, x)) = c.iter().enumerate().find(|(_, x)| !(x.is_finite() && **x >= 0.0)) {
+            return Err(FieldError::Conductivity(format!("face {f} has {x}")));
+        }
+    }
+    let c_max = conductivity.map_or(1.0, |c| c.iter().copied().fold(0.0, Real::max)).max(Real::MIN_POSITIVE);
+    let mut value = vec![0.0; n];
+    let mut is_fixed = vec![false; n];
+    for &(v, x) in fixed {
+        value[v] = x;
+        is_fixed[v] = true;
+    }
+    // Unknowns: the free vertices, numbered in order.
+    let mut unknown = vec![usize::MAX; n];
+    let mut free = 0;
+    for v in 0..n {
+        if !is_fixed[v] {
+            unknown[v] = free;
+            free += 1;
+        }
+    }
+    if free == 0 {
+        return Ok(value);
+    }
+    let mut triplets = Vec::with_capacity(mesh.faces.len() * 9);
+    let mut rhs = vec![0.0; free];
+    for (f, face) in mesh.faces.iter().enumerate() {
+        let c = conductivity.map_or(1.0, |c| c[f]).max(INSULATOR * c_max);
+        let p = face.map(|i| mesh.vertices[i as usize]);
+        for k in 0..3 {
+            // The edge (a, b) opposite corner k: weight c·cot(angle at k)/2.
+            let (a, b) = (face[(k + 1) % 3] as usize, face[(k + 2) % 3] as usize);
+            let (ea, eb) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
+            let cross = ea.cross(&eb).norm();
+            if cross <= 0.0 {
+                continue; // a degenerate face carries no flux
+            }
+            let w = c * ea.dot(&eb) / cross / 2.0;
+            for (i, j) in [(a, b), (b, a)] {
+                if is_fixed[i] {
+                    continue;
+                }
+                let row = unknown[i];
+                triplets.push(Triplet::new(row, row, w));
+                if is_fixed[j] {
+                    rhs[row] += w * value[j];
+                } else {
+                    triplets.push(Triplet::new(row, unknown[j], -w));
+                }
+            }
+        }
+    }
+    let matrix = SparseColMat::<usize, Real>::try_new_from_triplets(free, free, &triplets)
+        .map_err(|e| FieldError::Singular(format!("{e:?}")))?;
+    let llt = matrix.sp_cholesky(Side::Lower).map_err(|e| FieldError::Singular(format!("{e:?}")))?;
+    let mut b = Mat::<Real>::from_fn(free, 1, |i, _| rhs[i]);
+    llt.solve_in_place(b.as_mut());
+    for v in 0..n {
+        if !is_fixed[v] {
+            value[v] = b[(unknown[v], 0)];
+            if !value[v].is_finite() {
+                return Err(FieldError::Singular(format!("vertex {v} got {}", value[v])));
+            }
+        }
+    }
+    Ok(value)
+}
+
+/// The gradient of a per-vertex field on each face (eq. 6.1), constant over the face.
+pub fn face_gradients(mesh: &TriMesh, u: &[Real]) -> Vec<Vector3> {
+    mesh.faces
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|i| mesh.vertices[i as usize]);
+            let [ua, ub, uc] = f.map(|i| u[i as usize]);
+            let n = (b - a).cross(&(c - a));
+            let area2 = n.norm_squared();
+            if area2 <= 0.0 {
+                return Vector3::zeros();
+            }
+            // ∇u = Σ u_i (n × e_i) / (2A)·… with e_i the edge opposite vertex i.
+            (n.cross(&(c - b)) * ua + n.cross(&(a - c)) * ub + n.cross(&(b - a)) * uc) / area2
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rig::math::Point3;
+
+    /// A w × h lattice of unit squares split into triangles, in the z = 0 plane.
+    pub(crate) fn plate(w: usize, h: usize, cell: Real) -> TriMesh {
+        let mut m = TriMesh::default();
+        for j in 0..=h {
+            for i in 0..=w {
+                m.vertices.push(Point3::new(i as Real * cell, j as Real * cell, 0.0));
+            }
+        }
+        let id = |i: usize, j: usize| (j * (w + 1) + i) as u32;
+        for j in 0..h {
+            for i in 0..w {
+                m.faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                m.faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        m
+    }
+
+    #[test]
+    fn a_plate_between_two_potentials_is_linear_and_its_gradient_uniform() {
+        let m = plate(20, 10, 1.0);
+        let fixed: Vec<(usize, Real)> = (0..=20).flat_map(|i| [(i, 0.0), (10 * 21 + i, 1.0)]).collect();
+        let u = harmonic_field(&m, None, &fixed).unwrap();
+        for (v, p) in m.vertices.iter().enumerate() {
+            assert!((u[v] - p.y / 10.0).abs() < 1e-9, "vertex {v}: {} vs {}", u[v], p.y / 10.0);
+        }
+        for g in face_gradients(&m, &u) {
+            assert!((g - Vector3::new(0.0, 0.1, 0.0)).norm() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn bad_problems_are_refused() {
+        let m = plate(2, 2, 1.0);
+        assert!(matches!(harmonic_field(&m, None, &[]), Err(FieldError::NoConstraints)));
+        assert!(matches!(harmonic_field(&m, None, &[(99, 1.0)]), Err(FieldError::BadVertex(99, 9))));
+        assert!(matches!(harmonic_field(&m, Some(&[1.0; 3]), &[(0, 1.0)]), Err(FieldError::Conductivity(_))));
+        assert!(matches!(harmonic_field(&m, Some(&[-1.0; 8]), &[(0, 1.0)]), Err(FieldError::Conductivity(_))));
+    }
+}
