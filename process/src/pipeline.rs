@@ -404,18 +404,24 @@ pub fn process_scan(
         && let Some((input, input_path)) = cloud
     {
         let path = out.join("fused.ply");
+        // Kept in memory when computed here, so reconstruction does not read it straight back.
+        let mut fused = None;
         if params.force || !is_current(&path, &[input_path]) {
             let input = with_sensor_normals(input, &grids, &rig);
             let result = crate::mean_shift::mean_shift(&input, &params.fuse);
             rig::ply::write_cloud(&path, &result.cloud, &write_opts)?;
             report.fuse = Some(result.report);
+            fused = Some(result.cloud);
         }
         report.outputs.push("fused.ply".into());
         progress("fuse", 1, 1);
         if params.until >= Stage::Reconstruct {
             let mesh_path = out.join("mesh.ply");
             if params.force || !is_current(&mesh_path, std::slice::from_ref(&path)) {
-                let fused = rig::read_cloud(&path)?;
+                let fused = match fused {
+                    Some(cloud) => cloud,
+                    None => rig::read_cloud(&path)?,
+                };
                 let (mesh, r) = crate::reconstruct::global_fft::reconstruct_fft(&fused, &params.reconstruct)
                     .map_err(|e| Error::Setup(format!("{}: {e}", path.display())))?;
                 rig::ply::write_mesh(&mesh_path, &mesh.to_poly(), &write_opts)?;
@@ -444,26 +450,18 @@ fn with_sensor_normals(mut cloud: PointCloud, grids: &[(usize, Real, RangeGrid)]
     if usable || cloud.is_empty() {
         return cloud;
     }
-    let centre = |view: u32| {
-        let angle = grids.iter().find(|g| g.0 == view as usize).map_or(0.0, |g| g.1);
-        let pose = rig.turntable.map(|t| t.object_from_camera(angle)).unwrap_or_else(rig::Isometry3::identity);
-        pose * rig::Point3::origin()
-    };
-    let centres: std::collections::HashMap<u32, rig::Point3> = cloud
-        .view_id
+    // Each view's camera centre in the object frame, from its turntable pose.
+    let centres: std::collections::HashMap<u32, rig::Point3> = grids
         .iter()
-        .flatten()
-        .copied()
-        .collect::<std::collections::HashSet<u32>>()
-        .into_iter()
-        .map(|v| (v, centre(v)))
+        .map(|(v, angle, _)| {
+            let pose = rig.turntable.map(|t| t.object_from_camera(*angle)).unwrap_or_else(rig::Isometry3::identity);
+            (*v as u32, pose * rig::Point3::origin())
+        })
         .collect();
     let tree = crate::normals::PointTree::new(&cloud.positions);
-    let views = cloud.view_id.clone();
-    let positions = cloud.positions.clone();
     let normals = crate::normals::pca_normals(&cloud.positions, &tree, 48, |i| {
-        let v = views.as_ref().map_or(0, |v| v[i]);
-        centres.get(&v).map_or(rig::Vector3::z(), |c| c - positions[i])
+        let v = cloud.view_id.as_ref().map_or(0, |v| v[i]);
+        centres.get(&v).map_or(rig::Vector3::z(), |c| c - cloud.positions[i])
     });
     cloud.normals = Some(normals);
     cloud
