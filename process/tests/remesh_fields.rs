@@ -11,20 +11,7 @@ const W: usize = 60;
 const H: usize = 40;
 
 fn plate() -> TriMesh {
-    let mut m = TriMesh::default();
-    for j in 0..=H {
-        for i in 0..=W {
-            m.vertices.push(Point3::new(i as Real, j as Real, 0.0));
-        }
-    }
-    let id = |i: usize, j: usize| (j * (W + 1) + i) as u32;
-    for j in 0..H {
-        for i in 0..W {
-            m.faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-            m.faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-        }
-    }
-    m
+    fixtures::plate(W, H, false)
 }
 
 /// Whether a face's centroid lies in the inner square (the middle third of each side).

@@ -55,6 +55,20 @@ pub fn constrained_field(
     lines: &[(usize, usize)],
     weight: Real,
 ) -> Result<Vec<Real>, FieldError> {
+    let rows: Vec<Vec<(usize, Real)>> = lines.iter().map(|&(a, b)| vec![(a, 1.0), (b, -1.0)]).collect();
+    field_with_rows(mesh, conductivity, fixed, &rows, weight)
+}
+
+/// The general form of [`constrained_field`]: each row `Σ c_v u_v = 0` (a list of `(v, c_v)`) is one
+/// extra least-squares equation, scaled by `weight`. Gradient constraints other than contours — the
+/// gradient along a line, `⟨∇u, n × t⟩ = 0` in the faces beside it — are rows of this kind.
+pub fn field_with_rows(
+    mesh: &TriMesh,
+    conductivity: Option<&[Real]>,
+    fixed: &[(usize, Real)],
+    lines: &[Vec<(usize, Real)>],
+    weight: Real,
+) -> Result<Vec<Real>, FieldError> {
     let n = mesh.vertices.len();
     if fixed.is_empty() {
         return Err(FieldError::NoConstraints);
@@ -62,8 +76,8 @@ pub fn constrained_field(
     if let Some(&(v, _)) = fixed.iter().find(|(v, _)| *v >= n) {
         return Err(FieldError::BadVertex(v, n));
     }
-    if let Some(&(a, b)) = lines.iter().find(|(a, b)| *a >= n || *b >= n) {
-        return Err(FieldError::BadVertex(a.max(b), n));
+    if let Some(&(v, _)) = lines.iter().flatten().find(|(v, _)| *v >= n) {
+        return Err(FieldError::BadVertex(v, n));
     }
     if let Some(c) = conductivity {
         if c.len() != mesh.faces.len() {
@@ -140,11 +154,11 @@ pub fn constrained_field(
 }
 
 /// The normal equations `AᵀA x = Aᵀb` of the stacked system: the Laplace rows (`triplets`, `rhs`) and
-/// one row `w·(u_a − u_b) = 0` per constraint edge, with prescribed values moved to the right.
+/// one row `w·Σ c_v u_v = 0` per constraint, with prescribed values moved to the right.
 fn normal_equations(
     triplets: &[Triplet<usize, usize, Real>],
     rhs: &[Real],
-    lines: &[(usize, usize)],
+    lines: &[Vec<(usize, Real)>],
     weight: Real,
     unknown: &[usize],
     value: &[Real],
@@ -156,10 +170,11 @@ fn normal_equations(
         rows[t.row].push((t.col, t.val));
     }
     let mut b: Vec<Real> = rhs.to_vec();
-    for &(a, c) in lines {
+    for line in lines {
         let mut row = Vec::new();
         let mut r = 0.0;
-        for (v, coeff) in [(a, weight), (c, -weight)] {
+        for &(v, c) in line {
+            let coeff = weight * c;
             if unknown[v] == usize::MAX {
                 r -= coeff * value[v];
             } else {
@@ -212,23 +227,10 @@ pub fn face_gradients(mesh: &TriMesh, u: &[Real]) -> Vec<Vector3> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use rig::math::Point3;
 
-    /// A w × h lattice of unit squares split into triangles, in the z = 0 plane.
-    pub(crate) fn plate(w: usize, h: usize, cell: Real) -> TriMesh {
-        let mut m = TriMesh::default();
-        for j in 0..=h {
-            for i in 0..=w {
-                m.vertices.push(Point3::new(i as Real * cell, j as Real * cell, 0.0));
-            }
-        }
-        let id = |i: usize, j: usize| (j * (w + 1) + i) as u32;
-        for j in 0..h {
-            for i in 0..w {
-                m.faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
-                m.faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
-            }
-        }
+    fn plate(w: usize, h: usize, cell: Real) -> TriMesh {
+        let mut m = fixtures::plate(w, h, false);
+        m.vertices.iter_mut().for_each(|p| *p *= cell);
         m
     }
 

@@ -1,0 +1,605 @@
+//! The whole quad remesh (thesis §6, fig. 6.4): constraint lines (given, or feature lines), the
+//! half-split where a line turns inside a triangle (fig. 6.5), a harmonic or quasi-harmonic field
+//! between two far-apart poles that follows the lines (eqs. 6.2–6.4), evenly spaced streamlines of its
+//! gradient and co-gradient, and the quads their crossings bound, with a quality report.
+//!
+//! A constraint line can only be followed by one family of streamlines: those nearly across the
+//! unconstrained field's gradient become contours (eq. 6.3, `⟨∇u, t⟩ = 0`), the others gradient lines
+//! (`⟨∇u, n × t⟩ = 0` in the faces beside them). Both kinds are rows of the same least-squares system.
+
+use super::features::{chain, feature_edges};
+use super::half_split::split_doubly_constrained;
+use super::harmonic::{FieldError, face_gradients, field_with_rows, harmonic_field};
+use super::polygon_split::{SplitStats, split_polygons};
+use super::quad_graph::{GraphStats, quads_from_lines};
+use super::quality::{Quality, measure};
+use super::seeding::{Family, Field, Line, Spacing, place_lines};
+use super::singularities::vertex_indices;
+use super::streamline::Walls;
+use super::surface::Surface;
+use rig::math::{Point3, Real};
+use rig::union_find::UnionFind;
+use rig::{PolyMesh, TriMesh};
+use serde::Serialize;
+use std::cmp::Reverse;
+use std::collections::{BinaryHeap, HashMap, HashSet};
+use std::time::Instant;
+
+/// The default streamline spacing as a fraction of the bounding-box diagonal: about 10 000 quads on
+/// a compact shape, fine enough to stay within 0.5 % of the input on a machined part like fandisk.
+pub const DEFAULT_SPACING: Real = 0.01;
+
+/// Settings of [`remesh`].
+#[derive(Debug, Clone)]
+pub struct RemeshParams {
+    /// Distance between neighbouring streamlines (the quad size); `None`: [`DEFAULT_SPACING`] of the
+    /// bounding-box diagonal.
+    pub spacing: Option<Real>,
+    /// Edges folding by more than this many degrees become feature lines; `None`: no feature lines.
+    pub feature_angle: Option<Real>,
+    /// Weight of the constraint rows against the Laplace rows.
+    pub weight: Real,
+    /// Per-face conductivity (eq. 6.4); `None`: 1 everywhere (harmonic, eq. 6.2).
+    pub conductivity: Option<Vec<Real>>,
+    /// Constraint lines as vertex paths; consecutive vertices that are not neighbours are joined by
+    /// the shortest edge path.
+    pub lines: Vec<Vec<usize>>,
+    /// Split the n-gons left at T-junctions and singularities into quads and a triangle at most.
+    pub split_polygons: bool,
+    /// Feature lines shorter than this many spacings are ignored.
+    pub min_feature_length: Real,
+}
+
+impl Default for RemeshParams {
+    fn default() -> Self {
+        RemeshParams {
+            spacing: None,
+            feature_angle: Some(30.0),
+            weight: 10.0,
+            conductivity: None,
+            lines: Vec::new(),
+            split_polygons: true,
+            min_feature_length: 3.0,
+        }
+    }
+}
+
+/// Why a remesh failed.
+#[derive(Debug, thiserror::Error)]
+pub enum RemeshError {
+    /// The mesh has no faces.
+    #[error("the mesh has no faces")]
+    Empty,
+    /// A constraint line is unusable.
+    #[error("constraint line {0}: {1}")]
+    BadLine(usize, String),
+    /// The field could not be solved.
+    #[error(transparent)]
+    Field(#[from] FieldError),
+}
+
+/// Seconds per phase.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct Timings {
+    /// Constraints, half-split and the field solves.
+    pub field: f64,
+    /// Streamline placement.
+    pub streamlines: f64,
+    /// Crossings and faces.
+    pub quads: f64,
+    /// The quality report.
+    pub quality: f64,
+}
+
+/// What [`remesh`] did and how good the result is.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct RemeshReport {
+    /// Triangles in.
+    pub input_faces: usize,
+    /// Edges split by the half-split of fig. 6.5.
+    pub split_edges: usize,
+    /// Constraint lines followed by contours.
+    pub contour_constraints: usize,
+    /// Constraint lines followed by gradient lines.
+    pub gradient_constraints: usize,
+    /// The streamline spacing used.
+    pub spacing: Real,
+    /// Streamlines traced (constraints included).
+    pub streamlines: usize,
+    /// Counts from the crossing graph.
+    pub graph: GraphStats,
+    /// Polygons split into quads and triangles.
+    pub split: SplitStats,
+    /// The quality report.
+    pub quality: Quality,
+    /// Seconds per phase.
+    pub seconds: Timings,
+}
+
+/// The designed field and its streamlines: everything before the quads.
+pub struct Streamlines {
+    /// The input after the half-split: the mesh the field and lines live on.
+    pub mesh: TriMesh,
+    /// The field per vertex of `mesh`.
+    pub u: Vec<Real>,
+    /// Its gradient per face.
+    pub grad: Vec<rig::math::Vector3>,
+    /// Constraint lines first, then the traced streamlines, then the boundary.
+    pub lines: Vec<Line>,
+    /// Which of `lines` run along the mesh boundary.
+    pub on_boundary: Vec<bool>,
+    /// How many of `lines` are constraints (they come first).
+    pub constraints: usize,
+}
+
+/// Remeshes `mesh` into quads (see the module notes).
+pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, RemeshReport), RemeshError> {
+    let mut report = RemeshReport::default();
+    let traced = streamlines(mesh, params, &mut report)?;
+    let s = Surface::new(&traced.mesh);
+    let t2 = Instant::now();
+    let (mut out, graph) = quads_from_lines(&s, &traced.lines, &traced.on_boundary, 0.15 * report.spacing);
+    report.graph = graph;
+    if params.split_polygons {
+        (out, report.split) = split_polygons(&out);
+    }
+    report.seconds.quads = t2.elapsed().as_secs_f64();
+
+    let t3 = Instant::now();
+    let diag = mesh.bounding_box().map_or(0.0, |b| (b.max - b.min).norm());
+    let constraint_points: Vec<Vec<Point3>> =
+        traced.lines[..traced.constraints].iter().map(|l| l.points.clone()).collect();
+    report.quality = measure(mesh, &out, &constraint_points, 0.002 * diag);
+    report.quality.singularities =
+        vertex_indices(&traced.mesh, &traced.grad).iter().filter(|i| i.is_some_and(|i| i.abs() > 0.5)).count();
+    report.seconds.quality = t3.elapsed().as_secs_f64();
+    Ok((out, report))
+}
+
+/// The first half of [`remesh`]: constraints, field and streamlines, with their part of the report.
+pub fn streamlines(
+    mesh: &TriMesh,
+    params: &RemeshParams,
+    report: &mut RemeshReport,
+) -> Result<Streamlines, RemeshError> {
+    if mesh.faces.is_empty() {
+        return Err(RemeshError::Empty);
+    }
+    let t0 = Instant::now();
+    report.input_faces = mesh.faces.len();
+    let neighbours = vertex_neighbours(mesh);
+
+    // Constraint paths: the user's, joined up along edges, then the feature lines.
+    let mut paths: Vec<Vec<usize>> = Vec::new();
+    for (i, line) in params.lines.iter().enumerate() {
+        paths.push(join_path(mesh, &neighbours, line).map_err(|e| RemeshError::BadLine(i, e))?);
+    }
+    let diag = mesh.bounding_box().map_or(1.0, |b| (b.max - b.min).norm());
+    let spacing = params.spacing.unwrap_or(DEFAULT_SPACING * diag);
+    if let Some(angle) = params.feature_angle {
+        // Short, soft creases are noise on scanned surfaces, not features to follow; short sharp
+        // ones (a machined step) are kept.
+        let faces_of = edge_faces(mesh);
+        let length =
+            |p: &Vec<usize>| p.windows(2).map(|w| (mesh.vertices[w[1]] - mesh.vertices[w[0]]).norm()).sum::<Real>();
+        let sharp = (1.5 * angle).max(60.0);
+        paths.extend(chain(&feature_edges(mesh, angle)).into_iter().filter(|p| {
+            length(p) >= params.min_feature_length * spacing || mean_dihedral(mesh, &faces_of, p) >= sharp
+        }));
+    }
+    // A path that turns a corner cannot be one contour or one gradient line: split it there.
+    let paths: Vec<Vec<usize>> = paths.iter().flat_map(|p| split_at_turns(mesh, p, 50.0)).collect();
+    let constrained: HashSet<(u32, u32)> =
+        paths.iter().flat_map(|p| p.windows(2).map(|w| (w[0].min(w[1]) as u32, w[0].max(w[1]) as u32))).collect();
+    let (work, splits, parent) = split_doubly_constrained(mesh, &constrained);
+    report.split_edges = splits;
+    let conductivity: Option<Vec<Real>> = params.conductivity.as_ref().map(|c| parent.iter().map(|&f| c[f]).collect());
+    if let Some(c) = &params.conductivity
+        && c.len() != mesh.faces.len()
+    {
+        return Err(FieldError::Conductivity(format!("{} values for {} faces", c.len(), mesh.faces.len())).into());
+    }
+    let s = Surface::new(&work);
+
+    // Poles, then the unconstrained field to decide each line's family, then the constrained one.
+    let on_lines: Vec<usize> = paths.iter().flatten().copied().collect();
+    let fixed = poles(&work, &on_lines, 3.0 * spacing);
+    let free = harmonic_field(&work, conductivity.as_deref(), &fixed)?;
+    let free_grad = face_gradients(&work, &free);
+    let faces_of_edge = edge_faces(&work);
+    let mut families = Vec::with_capacity(paths.len());
+    let mut rows: Vec<Vec<(usize, Real)>> = Vec::new();
+    for path in &paths {
+        let family = path_family(&work, &faces_of_edge, &free_grad, path);
+        for w in path.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            match family {
+                Family::Contour => rows.push(vec![(a, 1.0), (b, -1.0)]),
+                Family::Gradient => {
+                    let t = work.vertices[b] - work.vertices[a];
+                    for &f in faces_of_edge.get(&(a.min(b) as u32, a.max(b) as u32)).into_iter().flatten() {
+                        let across = s.normal[f as usize].cross(&t);
+                        let face = work.faces[f as usize];
+                        rows.push(
+                            (0..3).map(|k| (face[k] as usize, s.grad_bary[f as usize][k].dot(&across))).collect(),
+                        );
+                    }
+                }
+            }
+        }
+        families.push(family);
+    }
+    report.contour_constraints = families.iter().filter(|&&f| f == Family::Contour).count();
+    report.gradient_constraints = families.len() - report.contour_constraints;
+    let u = if rows.is_empty() {
+        free
+    } else {
+        field_with_rows(&work, conductivity.as_deref(), &fixed, &rows, params.weight)?
+    };
+    let grad = face_gradients(&work, &u);
+    report.seconds.field = t0.elapsed().as_secs_f64();
+
+    // Streamlines: the constraints first, then both families evenly spaced.
+    let t1 = Instant::now();
+    report.spacing = spacing;
+    let constraint_lines: Vec<Line> = paths
+        .iter()
+        .zip(&families)
+        .filter_map(|(path, &family)| path_line(&work, &faces_of_edge, path, family))
+        .collect();
+    let constraints = constraint_lines.len();
+    let walls: Walls =
+        paths.iter().flat_map(|p| p.windows(2).map(|w| (w[0].min(w[1]) as u32, w[0].max(w[1]) as u32))).collect();
+    let field = Field { surface: &s, u: &u, grad: &grad, walls: &walls };
+    let mut lines = place_lines(&field, constraint_lines, Spacing::new(spacing));
+    let mut on_boundary = vec![false; lines.len()];
+    for line in boundary_lines(&s) {
+        lines.push(line);
+        on_boundary.push(true);
+    }
+    report.streamlines = lines.len();
+    report.seconds.streamlines = t1.elapsed().as_secs_f64();
+    Ok(Streamlines { mesh: work, u, grad, lines, on_boundary, constraints })
+}
+
+/// Each vertex's neighbours along edges.
+fn vertex_neighbours(mesh: &TriMesh) -> Vec<Vec<u32>> {
+    let mut n = vec![Vec::new(); mesh.vertices.len()];
+    for f in &mesh.faces {
+        for k in 0..3 {
+            let (a, b) = (f[k], f[(k + 1) % 3]);
+            n[a as usize].push(b);
+            n[b as usize].push(a);
+        }
+    }
+    for list in &mut n {
+        list.sort_unstable();
+        list.dedup();
+    }
+    n
+}
+
+/// Dijkstra distances along edges from `start`, with each vertex's predecessor.
+fn edge_distances(mesh: &TriMesh, neighbours: &[Vec<u32>], start: usize) -> (Vec<Real>, Vec<u32>) {
+    edge_distances_from(mesh, neighbours, &[start])
+}
+
+/// Dijkstra distances along edges from the nearest of `starts` (infinite everywhere without any).
+fn edge_distances_from(mesh: &TriMesh, neighbours: &[Vec<u32>], starts: &[usize]) -> (Vec<Real>, Vec<u32>) {
+    let mut dist = vec![Real::INFINITY; mesh.vertices.len()];
+    let mut prev = vec![u32::MAX; mesh.vertices.len()];
+    let mut heap = BinaryHeap::new();
+    for &start in starts {
+        dist[start] = 0.0;
+        heap.push(Reverse((OrdReal(0.0), start as u32)));
+    }
+    while let Some(Reverse((OrdReal(d), v))) = heap.pop() {
+        if d > dist[v as usize] {
+            continue;
+        }
+        for &w in &neighbours[v as usize] {
+            let nd = d + (mesh.vertices[w as usize] - mesh.vertices[v as usize]).norm();
+            if nd < dist[w as usize] {
+                dist[w as usize] = nd;
+                prev[w as usize] = v;
+                heap.push(Reverse((OrdReal(nd), w)));
+            }
+        }
+    }
+    (dist, prev)
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct OrdReal(Real);
+impl Eq for OrdReal {}
+impl PartialOrd for OrdReal {
+    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for OrdReal {
+    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+        self.0.total_cmp(&o.0)
+    }
+}
+
+/// A vertex path with every step along an edge: gaps are filled with shortest edge paths.
+fn join_path(mesh: &TriMesh, neighbours: &[Vec<u32>], line: &[usize]) -> Result<Vec<usize>, String> {
+    if line.len() < 2 {
+        return Err("needs at least two vertices".into());
+    }
+    if let Some(&v) = line.iter().find(|&&v| v >= mesh.vertices.len()) {
+        return Err(format!("vertex {v} is not in the mesh ({} vertices)", mesh.vertices.len()));
+    }
+    let mut path = vec![line[0]];
+    for w in line.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if a == b {
+            continue;
+        }
+        if neighbours[a].binary_search(&(b as u32)).is_ok() {
+            path.push(b);
+            continue;
+        }
+        let (dist, prev) = edge_distances(mesh, neighbours, a);
+        if !dist[b].is_finite() {
+            return Err(format!("vertices {a} and {b} are not connected"));
+        }
+        let mut back = vec![b];
+        while *back.last().expect("non-empty") != a {
+            back.push(prev[*back.last().expect("non-empty")] as usize);
+        }
+        path.extend(back.iter().rev().skip(1));
+    }
+    Ok(path)
+}
+
+/// Splits a vertex path where it turns by more than `max_turn_deg`, or has turned by more than that
+/// in total since its last split (a closed path also at its start, which then is a corner).
+fn split_at_turns(mesh: &TriMesh, path: &[usize], max_turn_deg: Real) -> Vec<Vec<usize>> {
+    let limit = max_turn_deg.to_radians();
+    let dir = |a: usize, b: usize| (mesh.vertices[b] - mesh.vertices[a]).normalize();
+    let mut out = Vec::new();
+    let mut piece = vec![path[0]];
+    let mut start_dir: Option<rig::math::Vector3> = None;
+    for i in 1..path.len() {
+        piece.push(path[i]);
+        let d = dir(path[i - 1], path[i]);
+        let start = *start_dir.get_or_insert(d);
+        if i + 1 < path.len() {
+            let next = dir(path[i], path[i + 1]);
+            if d.angle(&next) > limit || start.angle(&next) > limit {
+                out.push(std::mem::replace(&mut piece, vec![path[i]]));
+                start_dir = None;
+            }
+        }
+    }
+    if piece.len() > 1 {
+        out.push(piece);
+    }
+    out
+}
+
+/// Two far-apart vertices per connected part, valued 0 and 1: the field's source and sink. The pair
+/// comes from a double sweep (the farthest vertex from any start, then the farthest from that), over
+/// the vertices at least `clearance` from every constrained vertex where there are such: a pole is a
+/// singularity, and on a crease its fan of lines would cut the crease's corner.
+fn poles(mesh: &TriMesh, constrained: &[usize], clearance: Real) -> Vec<(usize, Real)> {
+    let neighbours = vertex_neighbours(mesh);
+    let mut parts = UnionFind::new(mesh.vertices.len());
+    for f in &mesh.faces {
+        parts.union(f[0] as usize, f[1] as usize);
+        parts.union(f[1] as usize, f[2] as usize);
+    }
+    let (to_line, _) = edge_distances_from(mesh, &neighbours, constrained);
+    let mut done: HashSet<usize> = HashSet::new();
+    let mut fixed = Vec::new();
+    for f in &mesh.faces {
+        let root = parts.find(f[0] as usize);
+        if !done.insert(root) {
+            continue;
+        }
+        let (mut members, mut clear) = (Vec::new(), Vec::new());
+        for (v, &d) in to_line.iter().enumerate() {
+            if parts.find(v) == root {
+                members.push(v);
+                if d >= clearance {
+                    clear.push(v);
+                }
+            }
+        }
+        // Without a clear vertex, the clearest ones.
+        if clear.is_empty() {
+            let best = members.iter().map(|&v| to_line[v]).fold(0.0, Real::max);
+            clear = members.iter().copied().filter(|&v| to_line[v] >= 0.5 * best).collect();
+        }
+        let far = |from: usize| {
+            let (d, _) = edge_distances(mesh, &neighbours, from);
+            clear.iter().copied().filter(|&v| d[v].is_finite()).max_by(|&a, &b| d[a].total_cmp(&d[b])).unwrap_or(from)
+        };
+        let a = far(clear[0]);
+        let b = far(a);
+        fixed.push((a, 0.0));
+        if b != a {
+            fixed.push((b, 1.0));
+        }
+    }
+    fixed
+}
+
+/// The faces on each edge `(a, b)`, `a < b`.
+fn edge_faces(mesh: &TriMesh) -> HashMap<(u32, u32), Vec<u32>> {
+    let mut m: HashMap<(u32, u32), Vec<u32>> = HashMap::with_capacity(mesh.faces.len() * 3 / 2);
+    for (i, f) in mesh.faces.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (f[k], f[(k + 1) % 3]);
+            m.entry((a.min(b), a.max(b))).or_default().push(i as u32);
+        }
+    }
+    m
+}
+
+/// Which family can follow a path: contours if the field mostly crosses it (length-weighted mean
+/// |cos| between path and gradient below cos 45°), gradient lines otherwise.
+fn path_family(
+    mesh: &TriMesh,
+    faces_of_edge: &HashMap<(u32, u32), Vec<u32>>,
+    grad: &[rig::math::Vector3],
+    path: &[usize],
+) -> Family {
+    let (mut along, mut total) = (0.0, 0.0);
+    for w in path.windows(2) {
+        let t = mesh.vertices[w[1]] - mesh.vertices[w[0]];
+        for &f in faces_of_edge.get(&(w[0].min(w[1]) as u32, w[0].max(w[1]) as u32)).into_iter().flatten() {
+            let g = grad[f as usize];
+            if g.norm() > 0.0 {
+                along += (g.dot(&t) / g.norm()).abs();
+                total += t.norm();
+            }
+        }
+    }
+    if total > 0.0 && along / total > std::f64::consts::FRAC_1_SQRT_2 { Family::Gradient } else { Family::Contour }
+}
+
+/// A constraint path as a line along mesh edges.
+fn path_line(
+    mesh: &TriMesh,
+    faces_of_edge: &HashMap<(u32, u32), Vec<u32>>,
+    path: &[usize],
+    family: Family,
+) -> Option<Line> {
+    let mut faces = Vec::with_capacity(path.len());
+    for w in path.windows(2) {
+        faces.push(*faces_of_edge.get(&(w[0].min(w[1]) as u32, w[0].max(w[1]) as u32))?.first()?);
+    }
+    let closed = path.len() > 2 && path[0] == path[path.len() - 1];
+    Some(Line {
+        family,
+        points: path.iter().map(|&v| mesh.vertices[v]).collect(),
+        faces,
+        closed,
+        on_edges: true,
+        end_vertices: if closed { [None, None] } else { [Some(path[0] as u32), Some(path[path.len() - 1] as u32)] },
+    })
+}
+
+/// The mesh boundary as lines along its edges, each oriented with the surface on its left, split
+/// where the boundary turns a corner so the corner is a node of the quad graph.
+fn boundary_lines(s: &Surface) -> Vec<Line> {
+    let mesh = s.mesh;
+    // Boundary edge from corner k+1 to k+2 of a face with nothing across edge k.
+    let mut from: HashMap<u32, u32> = HashMap::new();
+    for (f, face) in mesh.faces.iter().enumerate() {
+        for k in 0..3 {
+            if s.across(f as u32, k).is_none() {
+                from.insert(face[(k + 1) % 3], face[(k + 2) % 3]);
+            }
+        }
+    }
+    let faces_of_edge = edge_faces(mesh);
+    let mut starts: Vec<u32> = from.keys().copied().collect();
+    starts.sort_unstable();
+    let mut used: HashSet<u32> = HashSet::new();
+    let mut lines = Vec::new();
+    for start in starts {
+        if used.contains(&start) {
+            continue;
+        }
+        let mut path = vec![start as usize];
+        let mut v = start;
+        while let Some(&w) = from.get(&v) {
+            if !used.insert(v) {
+                break;
+            }
+            path.push(w as usize);
+            v = w;
+            if v == start {
+                break;
+            }
+        }
+        for piece in split_at_turns(mesh, &path, 50.0) {
+            lines.extend(path_line(mesh, &faces_of_edge, &piece, Family::Contour));
+        }
+    }
+    lines
+}
+
+/// The mean angle, in degrees, between the normals of the two faces along a path's edges.
+fn mean_dihedral(mesh: &TriMesh, faces_of: &HashMap<(u32, u32), Vec<u32>>, path: &[usize]) -> Real {
+    let normal = |f: u32| {
+        let [a, b, c] = mesh.faces[f as usize].map(|i| mesh.vertices[i as usize]);
+        (b - a).cross(&(c - a))
+    };
+    let (mut sum, mut n) = (0.0, 0);
+    for w in path.windows(2) {
+        if let Some([f, g]) = faces_of.get(&(w[0].min(w[1]) as u32, w[0].max(w[1]) as u32)).map(|v| v.as_slice()) {
+            sum += normal(*f).angle(&normal(*g)).to_degrees();
+            n += 1;
+        }
+    }
+    if n > 0 { sum / n as Real } else { 0.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::remesh::seeding::place_lines;
+
+    fn plate(w: usize, h: usize) -> TriMesh {
+        fixtures::plate(w, h, false)
+    }
+
+    #[test]
+    fn a_linear_field_on_a_plate_gives_a_grid_of_quads_inside_its_boundary() {
+        let m = plate(30, 20);
+        let s = Surface::new(&m);
+        let u: Vec<Real> = m.vertices.iter().map(|p| p.x).collect();
+        let grad = face_gradients(&m, &u);
+        let walls = Walls::new();
+        let field = Field { surface: &s, u: &u, grad: &grad, walls: &walls };
+        let mut lines = place_lines(&field, Vec::new(), Spacing::new(2.0));
+        let mut on_boundary = vec![false; lines.len()];
+        for l in boundary_lines(&s) {
+            lines.push(l);
+            on_boundary.push(true);
+        }
+        let (out, stats) = quads_from_lines(&s, &lines, &on_boundary, 0.3);
+        let sizes = out.face_sizes();
+        assert_eq!(sizes.quads, out.face_count(), "{sizes:?}");
+        // The quads tile the plate: their areas add up to it, and every corner is square.
+        let area: Real = out
+            .triangulate()
+            .faces
+            .iter()
+            .map(|f| {
+                let [a, b, c] = f.map(|i| out.vertices[i as usize]);
+                (b - a).cross(&(c - a)).z / 2.0
+            })
+            .sum();
+        assert!((area - 600.0).abs() < 1e-6, "area {area}");
+        let q = measure(&m, &out, &[], 0.01);
+        assert!(q.mean_angle_error_deg < 1e-6, "{}", q.mean_angle_error_deg);
+        assert_eq!(q.non_manifold_edges, 0);
+        // Only the plate's outline is open: 2·(w + h) / spacing edges, give or take the cut corners.
+        let outline = 2.0 * (30.0 + 20.0) / 2.0;
+        assert!((q.boundary_edges as Real - outline).abs() <= 4.0, "{} boundary edges", q.boundary_edges);
+        assert_eq!(stats.bridges, 0);
+    }
+
+    #[test]
+    fn constraint_paths_are_joined_split_at_corners_and_checked() {
+        let m = plate(6, 6);
+        let nb = vertex_neighbours(&m);
+        let id = |i: usize, j: usize| j * 7 + i;
+        // Two far vertices on one row get the row's edges between them.
+        let p = join_path(&m, &nb, &[id(0, 3), id(4, 3)]).unwrap();
+        assert_eq!(p, (0..=4).map(|i| id(i, 3)).collect::<Vec<_>>());
+        assert!(join_path(&m, &nb, &[id(0, 0)]).is_err());
+        assert!(join_path(&m, &nb, &[0, 999]).unwrap_err().contains("999"));
+        // An L-shaped path splits at its corner.
+        let l: Vec<usize> = (0..=3).map(|i| id(i, 1)).chain((2..=4).map(|j| id(3, j))).collect();
+        let pieces = split_at_turns(&m, &l, 50.0);
+        assert_eq!(pieces.len(), 2);
+        assert_eq!(pieces[0].last(), pieces[1].first());
+    }
+}
