@@ -37,6 +37,8 @@ pub enum Command {
     Fuse(FuseArgs),
     /// Reconstruct a watertight mesh from an oriented point cloud (thesis ch. 5).
     Reconstruct(ReconstructArgs),
+    /// Remesh a triangle mesh into quads along the streamlines of a designed harmonic field (thesis ch. 6).
+    Remesh(RemeshArgs),
     /// Decode a folder of structured-light images made by other tools into a projector correspondence map.
     Decode(DecodeArgs),
     /// Simulate a 36-view scan of the built-in object and process it: the whole pipeline on a virtual rig.
@@ -173,6 +175,7 @@ pub enum StageArg {
     Register,
     Fuse,
     Reconstruct,
+    Remesh,
 }
 
 #[derive(clap::Args, Debug)]
@@ -183,7 +186,7 @@ pub struct ProcessArgs {
     #[arg(long, short)]
     pub out: Option<PathBuf>,
     /// Stop after this stage.
-    #[arg(long, value_enum, default_value = "reconstruct")]
+    #[arg(long, value_enum, default_value = "remesh")]
     pub until: StageArg,
     /// Redo stages whose outputs are already current.
     #[arg(long)]
@@ -316,6 +319,45 @@ pub struct ReconstructArgs {
     /// Refuse grids needing more memory than this, GB.
     #[arg(long, default_value_t = 8.0)]
     pub memory_budget: f64,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct RemeshArgs {
+    /// The triangle mesh (.ply, .obj or .off; polygons are split into triangles).
+    pub input: PathBuf,
+    /// The quad mesh to write (.obj or .ply).
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Distance between neighbouring streamlines: the quad size (default 1 % of the bounding-box
+    /// diagonal).
+    #[arg(long)]
+    pub spacing: Option<f64>,
+    /// Creases folding by more than this many degrees become feature lines the quads follow.
+    #[arg(long, default_value_t = process::remesh::RemeshParams::default().feature_angle.unwrap_or(30.0))]
+    pub features: f64,
+    /// Follow no creases.
+    #[arg(long)]
+    pub no_features: bool,
+    /// Constraint lines to follow: one per line, vertex indices, or `p` and x y z points snapped to the
+    /// surface; `#` comments.
+    #[arg(long)]
+    pub constraints: Option<PathBuf>,
+    /// Per-face conductivity (eq. 6.4): one non-negative number per face; low values repel contours,
+    /// high values attract them.
+    #[arg(long)]
+    pub conductivity: Option<PathBuf>,
+    /// Weight of the line constraints against the Laplace equation.
+    #[arg(long, default_value_t = process::remesh::RemeshParams::default().weight)]
+    pub weight: f64,
+    /// Keep the n-gons at T-junctions instead of splitting them into quads and a triangle.
+    #[arg(long)]
+    pub keep_polygons: bool,
+    /// Also write the streamlines as OBJ polylines to this file.
+    #[arg(long)]
+    pub lines: Option<PathBuf>,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,

@@ -86,6 +86,18 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             }
         );
     }
+    if let Some(r) = &report.remesh {
+        let q = &r.quality;
+        println!(
+            "  quad mesh          {}  ({} faces, {:.1} % quads, corners {:.1}° from square on average; \
+             within {:.2} mm of the mesh; harmonic-field streamlines, thesis ch. 6)",
+            processed.join("quads.obj").display(),
+            q.faces,
+            100.0 * q.quad_fraction,
+            q.mean_angle_error_deg,
+            q.hausdorff
+        );
+    }
     println!("  report             {}", processed.join("report.json").display());
     println!("  the ground-truth object is {}", scan.join("truth/object.ply").display());
     Ok(())

@@ -11,6 +11,7 @@ mod info;
 mod process_cmd;
 mod reconstruct_cmd;
 mod register_cmd;
+mod remesh_cmd;
 mod sim_cmd;
 
 use clap::Parser;
@@ -28,6 +29,7 @@ fn main() -> ExitCode {
         cli::Command::Fuse(a) => fuse_cmd::run(&a),
         cli::Command::Reconstruct(a) => reconstruct_cmd::run(&a),
         cli::Command::Register(a) => register_cmd::run(&a),
+        cli::Command::Remesh(a) => remesh_cmd::run(&a),
         cli::Command::Demo(a) => demo::run(&a),
     };
     match result {

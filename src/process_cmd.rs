@@ -17,6 +17,7 @@ pub fn params(args: &ProcessArgs) -> ProcessParams {
             StageArg::Register => Stage::Register,
             StageArg::Fuse => Stage::Fuse,
             StageArg::Reconstruct => Stage::Reconstruct,
+            StageArg::Remesh => Stage::Remesh,
         },
         denoise: if args.no_denoise { None } else { defaults.denoise },
         force: args.force,
@@ -90,6 +91,17 @@ pub fn run(args: &ProcessArgs) -> Result<()> {
                 r.n,
                 r.cell,
                 r.seconds_splat + r.seconds_fft + r.seconds_extract
+            )?;
+        }
+        if let Some(r) = &report.remesh {
+            let q = &r.quality;
+            writeln!(
+                o,
+                "  quads: {} faces, {:.1} % quads, Hausdorff {:.3} mm, {:.1} s",
+                q.faces,
+                100.0 * q.quad_fraction,
+                q.hausdorff,
+                r.seconds.field + r.seconds.streamlines + r.seconds.quads
             )?;
         }
         for s in &report.skipped {

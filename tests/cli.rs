@@ -40,7 +40,9 @@ fn help_lists_every_subcommand_with_one_line() {
     let o = scanrig(&[&"--help"]);
     assert!(o.status.success());
     let text = stdout(&o);
-    for cmd in ["info", "convert", "sim", "process", "denoise", "register", "fuse", "reconstruct", "decode", "demo"] {
+    for cmd in
+        ["info", "convert", "sim", "process", "denoise", "register", "fuse", "reconstruct", "remesh", "decode", "demo"]
+    {
         let line =
             text.lines().find(|l| l.trim_start().starts_with(cmd)).unwrap_or_else(|| panic!("{cmd} not in\n{text}"));
         assert!(line.len() > cmd.len() + 10, "{cmd} has no description: {line}");
@@ -245,6 +247,7 @@ fn demo_simulates_processes_and_prints_its_outputs() {
         "registered cloud",
         "fused cloud",
         "watertight mesh",
+        "quad mesh",
         "range grids",
         "depth previews",
         "report",
@@ -253,6 +256,8 @@ fn demo_simulates_processes_and_prints_its_outputs() {
     }
     let mesh = rig::read_mesh(&out.join("processed/mesh.ply")).unwrap().triangulate();
     assert!(rig::topology::topology(&mesh).is_closed_oriented_manifold());
+    let quads = rig::read_mesh(&out.join("processed/quads.obj")).unwrap();
+    assert!(quads.face_sizes().quads as f64 > 0.85 * quads.face_count() as f64, "{:?}", quads.face_sizes());
     let merged = rig::read_cloud(&out.join("processed/merged.ply")).unwrap();
     assert!(merged.len() > 10_000 && merged.normals.is_some() && merged.view_id.is_some());
     assert!(out.join("processed/preview/view_001_depth.png").is_file());
@@ -261,6 +266,8 @@ fn demo_simulates_processes_and_prints_its_outputs() {
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert!(report["views"].as_array().unwrap().iter().all(|v| v["reused"] == true), "{report}");
     assert!(report["register"]["reused"] == true, "{report}");
+    assert!(report.get("remesh").is_none(), "the quad mesh is current and not redone: {report}");
+    assert!(report["outputs"].as_array().unwrap().iter().any(|o| o == "quads.obj"), "{report}");
     let fused = rig::read_cloud(&out.join("processed/fused.ply")).unwrap();
     assert!(fused.len() > 10_000 && fused.normals.is_some());
 }
@@ -439,4 +446,79 @@ fn reconstruct_meshes_an_oriented_cloud_and_refuses_one_without_normals() {
     // A grid over the memory budget is refused before anything is allocated.
     let o = scanrig(&[&"reconstruct", &input, &"-o", &d.path("y.ply"), &"--depth", &"10", &"--memory-budget", &"1"]);
     assert!(!o.status.success() && stderr(&o).contains("over the 1.0 GB budget"), "{}", stderr(&o));
+}
+
+/// A closed box of `n × n` squares per side (each split into two triangles), side `size`, outward.
+fn box_mesh(n: usize, size: f64) -> rig::TriMesh {
+    let mut index = std::collections::HashMap::new();
+    let mut m = rig::TriMesh::default();
+    let mut vertex = |p: [i64; 3], m: &mut rig::TriMesh| -> u32 {
+        *index.entry(p).or_insert_with(|| {
+            m.vertices.push(rig::Point3::new(p[0] as f64, p[1] as f64, p[2] as f64) * (size / n as f64));
+            m.vertices.len() as u32 - 1
+        })
+    };
+    let n = n as i64;
+    // Each side: the axis it faces, which end, and two in-plane axes ordered for an outward normal.
+    for (axis, end) in [(0usize, 0i64), (0, 1), (1, 0), (1, 1), (2, 0), (2, 1)] {
+        let (mut u, mut v) = ((axis + 1) % 3, (axis + 2) % 3);
+        if end == 0 {
+            std::mem::swap(&mut u, &mut v);
+        }
+        for i in 0..n {
+            for j in 0..n {
+                let corner = |a: i64, b: i64| {
+                    let mut p = [0i64; 3];
+                    p[axis] = end * n;
+                    p[u] = a;
+                    p[v] = b;
+                    p
+                };
+                let q =
+                    [corner(i, j), corner(i + 1, j), corner(i + 1, j + 1), corner(i, j + 1)].map(|p| vertex(p, &mut m));
+                m.faces.push([q[0], q[1], q[2]]);
+                m.faces.push([q[0], q[2], q[3]]);
+            }
+        }
+    }
+    m
+}
+
+#[test]
+fn remesh_turns_a_box_into_quads_along_its_edges_and_names_bad_inputs() {
+    let d = Dir::new();
+    let input = d.path("box.obj");
+    let cube = box_mesh(24, 30.0);
+    assert_eq!(rig::topology::topology(&cube).genus(), Some(0));
+    rig::obj::write_mesh(&input, &cube.to_poly()).unwrap();
+    let out = d.path("box_quads.obj");
+    let lines = d.path("box_lines.obj");
+    let o = scanrig(&[&"remesh", &input, &"-o", &out, &"--spacing", &"1.5", &"--lines", &lines, &"--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let q = &report["quality"];
+    assert!(q["quad_fraction"].as_f64().unwrap() > 0.9, "{q}");
+    assert_eq!(q["non_manifold_edges"], 0);
+    assert_eq!(q["boundary_edges"], 0);
+    // The twelve edges of the box are followed by quad edges.
+    assert!(q["constraint_alignment"].as_f64().unwrap() > 0.95, "{q}");
+    assert!(q["hausdorff_relative"].as_f64().unwrap() < 0.005, "{q}");
+    let quads = rig::read_mesh(&out).unwrap();
+    assert!(quads.face_sizes().quads > 1000);
+    assert!(std::fs::read_to_string(&lines).unwrap().lines().any(|l| l.starts_with("l ")));
+    // Text output names the file and the quad share.
+    let o = scanrig(&[&"remesh", &input, &"-o", &out, &"--spacing", &"3"]);
+    assert!(o.status.success() && stdout(&o).contains("quads"), "{}", stdout(&o));
+    // A constraint line with a vertex that does not exist, and a conductivity file of the wrong length.
+    let bad = d.write("lines.txt", b"# crease\n0 1\n5 999999\n");
+    let o = scanrig(&[&"remesh", &input, &"-o", &out, &"--constraints", &bad]);
+    assert!(!o.status.success() && stderr(&o).contains("lines.txt") && stderr(&o).contains("999999"), "{}", stderr(&o));
+    let garbled = d.write("garbled.txt", b"0 1\n2 x\n");
+    let o = scanrig(&[&"remesh", &input, &"-o", &out, &"--constraints", &garbled]);
+    assert!(!o.status.success() && stderr(&o).contains("garbled.txt: line 2"), "{}", stderr(&o));
+    let short = d.write("c.txt", b"1 1 1\n");
+    let o = scanrig(&[&"remesh", &input, &"-o", &out, &"--conductivity", &short]);
+    assert!(!o.status.success() && stderr(&o).contains("c.txt") && stderr(&o).contains("3 values"), "{}", stderr(&o));
+    let o = scanrig(&[&"remesh", &input, &"-o", &out, &"--spacing", &"0"]);
+    assert!(!o.status.success() && stderr(&o).contains("--spacing"), "{}", stderr(&o));
 }

@@ -21,8 +21,12 @@
 //! - [`icp`]: robust point-to-plane ICP (ch. 2.2) with a shrinking correspondence distance, Tukey
 //!   weights and boundary and normal rejection; [`normals`]: PCA normals over k-d-tree neighbours;
 //!
-//! Still to come, each in its own issue: multi-view registration,
-//! mean-shift fusion (ch. 3, eqs. 3.2–3.10), FFT/AdFFT reconstruction (ch. 5) and quad remeshing (ch. 6).
+//! - [`multiview`], [`register_scan`]: all views refined together from their turntable poses;
+//! - [`mean_shift`]: fusion by anisotropic mean shift with adaptive neighbourhoods, clustering and
+//!   outlier removal (ch. 3, eqs. 3.2–3.10); [`orient`]: consistent normal orientation;
+//! - [`reconstruct`]: the global FFT method and AdFFT's partition of unity, marching cubes (ch. 5);
+//! - [`remesh`]: harmonic and quasi-harmonic fields with line constraints, streamlines of their
+//!   gradient and co-gradient, and the quads between them (ch. 6).
 //!
 //! ```
 //! use process::triangulate::depth_eq_2_3;

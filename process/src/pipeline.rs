@@ -1,5 +1,6 @@
 //! `scanrig process`: a scan folder through the stages that exist — decode, triangulate (with grid
-//! normals), denoise, place by turntable pose and merge, register, fuse, reconstruct — each stage's output written atomically beside the scan
+//! normals), denoise, place by turntable pose and merge, register, fuse, reconstruct, remesh — each stage's output
+//! written atomically beside the scan
 //! and skipped when it is already there and newer than its inputs, so an interrupted run resumes.
 //!
 //! Output folder:
@@ -16,6 +17,7 @@
 //! fused.ply                    mean-shift fusion of the registered (else merged) cloud: outliers
 //!                              removed, noise averaged out, oriented normals
 //! mesh.ply                     watertight surface of the fused cloud (global FFT, ch. 5)
+//! quads.obj                    quad remesh of mesh.ply along a harmonic field's streamlines (ch. 6)
 //! report.json                  what every stage did (the `ProcessReport` below)
 //! ```
 
@@ -54,6 +56,24 @@ pub enum Stage {
     Fuse,
     /// A watertight mesh of the fused cloud (ch. 5).
     Reconstruct,
+    /// A quad mesh of the watertight one (ch. 6).
+    Remesh,
+}
+
+/// The settings of the remesh stage (the rest of [`crate::remesh::RemeshParams`] at its defaults).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RemeshSettings {
+    /// Streamline spacing, mm; `None`: the default fraction of the mesh's diagonal.
+    pub spacing: Option<Real>,
+    /// Creases sharper than this (degrees) are followed; `None`: none.
+    pub feature_angle: Option<Real>,
+}
+
+impl Default for RemeshSettings {
+    fn default() -> Self {
+        let d = crate::remesh::RemeshParams::default();
+        RemeshSettings { spacing: d.spacing, feature_angle: d.feature_angle }
+    }
 }
 
 /// Everything `process_scan` can be told.
@@ -77,6 +97,8 @@ pub struct ProcessParams {
     pub fuse: crate::mean_shift::MeanShiftParams,
     /// Reconstruction.
     pub reconstruct: crate::reconstruct::global_fft::FftParams,
+    /// Quad remeshing.
+    pub remesh: RemeshSettings,
     /// The last stage to run.
     pub until: Stage,
     /// Redo stages whose outputs are current.
@@ -95,7 +117,8 @@ impl Default for ProcessParams {
             register: crate::multiview::MultiViewParams::default(),
             fuse: crate::mean_shift::MeanShiftParams::default(),
             reconstruct: crate::reconstruct::global_fft::FftParams::default(),
-            until: Stage::Reconstruct,
+            remesh: RemeshSettings::default(),
+            until: Stage::Remesh,
             force: false,
         }
     }
@@ -168,6 +191,9 @@ pub struct ProcessReport {
     /// What reconstruction did (absent where it did not run).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reconstruct: Option<crate::reconstruct::global_fft::FftReport>,
+    /// What remeshing did (absent where it did not run).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub remesh: Option<crate::remesh::RemeshReport>,
     /// Stages that were asked for but could not run here, with the reason.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub skipped: Vec<String>,
@@ -417,18 +443,40 @@ pub fn process_scan(
         progress("fuse", 1, 1);
         if params.until >= Stage::Reconstruct {
             let mesh_path = out.join("mesh.ply");
+            let mut mesh = None;
             if params.force || !is_current(&mesh_path, std::slice::from_ref(&path)) {
                 let fused = match fused {
                     Some(cloud) => cloud,
                     None => rig::read_cloud(&path)?,
                 };
-                let (mesh, r) = crate::reconstruct::global_fft::reconstruct_fft(&fused, &params.reconstruct)
+                let (m, r) = crate::reconstruct::global_fft::reconstruct_fft(&fused, &params.reconstruct)
                     .map_err(|e| Error::Setup(format!("{}: {e}", path.display())))?;
-                rig::ply::write_mesh(&mesh_path, &mesh.to_poly(), &write_opts)?;
+                rig::ply::write_mesh(&mesh_path, &m.to_poly(), &write_opts)?;
                 report.reconstruct = Some(r);
+                mesh = Some(m);
             }
             report.outputs.push("mesh.ply".into());
             progress("reconstruct", 1, 1);
+            if params.until >= Stage::Remesh {
+                let quads_path = out.join("quads.obj");
+                if params.force || !is_current(&quads_path, std::slice::from_ref(&mesh_path)) {
+                    let mesh = match mesh {
+                        Some(m) => m,
+                        None => rig::read_mesh(&mesh_path)?.triangulate(),
+                    };
+                    let remesh_params = crate::remesh::RemeshParams {
+                        spacing: params.remesh.spacing,
+                        feature_angle: params.remesh.feature_angle,
+                        ..Default::default()
+                    };
+                    let (quads, r) = crate::remesh::remesh(&mesh, &remesh_params)
+                        .map_err(|e| Error::Setup(format!("{}: {e}", mesh_path.display())))?;
+                    rig::obj::write_mesh(&quads_path, &quads)?;
+                    report.remesh = Some(r);
+                }
+                report.outputs.push("quads.obj".into());
+                progress("remesh", 1, 1);
+            }
         }
     }
     report.total_seconds = start.elapsed().as_secs_f64();

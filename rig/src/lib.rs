@@ -77,6 +77,7 @@ pub mod obj;
 pub mod off;
 pub mod opencv_yaml;
 pub mod ply;
+pub mod remesh_inputs;
 
 /// Structured-light and laser pattern sequences.
 pub mod patterns;

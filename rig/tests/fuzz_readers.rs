@@ -30,6 +30,8 @@ fn read_everything(bytes: &[u8]) {
     let _ = rig::npy::parse(bytes);
     let _ = rig::image::decode_png(bytes);
     let _ = rig::Manifest::from_json(bytes);
+    let _ = rig::remesh_inputs::parse_constraints(bytes);
+    let _ = rig::remesh_inputs::parse_face_values(bytes, 3);
 }
 
 fn seeds() -> Vec<Vec<u8>> {
@@ -104,6 +106,8 @@ cy_px = 240.0\ndistortion = [0.1, 0.0, 0.0, 0.0, 0.0]\n[[lasers]]\nname = \"l\"\
         }],
     };
     out.push(serde_json::to_vec_pretty(&manifest).unwrap());
+    out.push(b"# remesh constraints\n12 45 78 90\np 0.0 1.0 2.0  0.5 1.2 2.1\n".to_vec());
+    out.push(b"1.0 0.5\n# insulator\n0\n".to_vec());
     out
 }
 
@@ -226,7 +230,9 @@ fn mutated_files_never_panic() {
             || rig::Rig::from_toml_str(&String::from_utf8_lossy(s)).is_ok()
             || rig::npy::parse(s).is_ok()
             || rig::image::decode_png(s).is_ok()
-            || rig::Manifest::from_json(s).is_ok();
+            || rig::Manifest::from_json(s).is_ok()
+            || rig::remesh_inputs::parse_constraints(s).is_ok_and(|c| !c.is_empty())
+            || rig::remesh_inputs::parse_face_values(s, 3).is_ok();
         assert!(ok, "seed {i} does not parse");
     }
     let mut tried = 0u64;
@@ -269,5 +275,35 @@ element face 2\nproperty list uchar int vertex_indices\nelement tristrips 1\npro
         ).into_bytes();
         bytes.extend(body);
         read_everything(&bytes);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(500))]
+
+    /// Written constraint lines read back as they were.
+    #[test]
+    fn constraint_files_round_trip(
+        paths in prop::collection::vec(prop::collection::vec(0usize..100_000, 2..12), 0..8),
+        sketches in prop::collection::vec(prop::collection::vec(-1e3f64..1e3, 2..6), 0..4),
+    ) {
+        use rig::remesh_inputs::{ConstraintLine, parse_constraints};
+        let mut text = String::from("# generated\n");
+        let mut expect = Vec::new();
+        for p in &paths {
+            text += &p.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(" ");
+            text += "\n\n";
+            expect.push(ConstraintLine::Vertices(p.clone()));
+        }
+        for s in &sketches {
+            let points: Vec<Point3> = s.iter().map(|&x| Point3::new(x, -x, 0.5 * x)).collect();
+            text += "p";
+            for q in &points {
+                text += &format!(" {} {} {}", q.x, q.y, q.z);
+            }
+            text += " # sketch\n";
+            expect.push(ConstraintLine::Points(points));
+        }
+        prop_assert_eq!(parse_constraints(text.as_bytes()).unwrap(), expect);
     }
 }

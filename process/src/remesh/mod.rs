@@ -16,4 +16,4 @@ pub mod singularities;
 pub mod streamline;
 pub mod surface;
 
-pub use quad_remesh::{RemeshError, RemeshParams, RemeshReport, remesh};
+pub use quad_remesh::{RemeshError, RemeshParams, RemeshReport, remesh, snap_lines};

@@ -18,6 +18,7 @@ use super::singularities::vertex_indices;
 use super::streamline::Walls;
 use super::surface::Surface;
 use rig::math::{Point3, Real};
+use rig::remesh_inputs::ConstraintLine;
 use rig::union_find::UnionFind;
 use rig::{PolyMesh, TriMesh};
 use serde::Serialize;
@@ -260,6 +261,40 @@ pub fn streamlines(
     report.streamlines = lines.len();
     report.seconds.streamlines = t1.elapsed().as_secs_f64();
     Ok(Streamlines { mesh: work, u, grad, lines, on_boundary, constraints })
+}
+
+/// Constraint lines as read from a file, as vertex paths of `mesh`: indices are checked, and points
+/// snapped to their nearest vertex (consecutive duplicates dropped). [`remesh`] joins the vertices of
+/// each path along edges.
+pub fn snap_lines(mesh: &TriMesh, lines: &[ConstraintLine]) -> Result<Vec<Vec<usize>>, RemeshError> {
+    let n = mesh.vertices.len();
+    let mut out = Vec::with_capacity(lines.len());
+    for (i, line) in lines.iter().enumerate() {
+        let mut path: Vec<usize> = match line {
+            ConstraintLine::Vertices(v) => {
+                if let Some(&bad) = v.iter().find(|&&v| v >= n) {
+                    return Err(RemeshError::BadLine(i, format!("vertex {bad} is not in the mesh ({n} vertices)")));
+                }
+                v.clone()
+            }
+            ConstraintLine::Points(points) => points
+                .iter()
+                .map(|p| {
+                    (0..n)
+                        .min_by(|&a, &b| {
+                            (mesh.vertices[a] - p).norm_squared().total_cmp(&(mesh.vertices[b] - p).norm_squared())
+                        })
+                        .ok_or(RemeshError::Empty)
+                })
+                .collect::<Result<_, _>>()?,
+        };
+        path.dedup();
+        if path.len() < 2 {
+            return Err(RemeshError::BadLine(i, "its points all snap to one vertex".into()));
+        }
+        out.push(path);
+    }
+    Ok(out)
 }
 
 /// Each vertex's neighbours along edges.

@@ -1,0 +1,114 @@
+//! `scanrig remesh`: a quad mesh from a triangle mesh, following its creases or given lines.
+
+use crate::cli::RemeshArgs;
+use anyhow::{Context, Result};
+use process::remesh::quad_remesh::{Streamlines, streamlines};
+use process::remesh::{RemeshParams, RemeshReport, remesh, snap_lines};
+use std::fmt::Write as _;
+use std::io::Write;
+
+pub fn run(args: &RemeshArgs) -> Result<()> {
+    let mesh = rig::read_mesh(&args.input)?.triangulate();
+    anyhow::ensure!(!mesh.faces.is_empty(), "{}: the mesh has no faces", args.input.display());
+    if let Some(s) = args.spacing {
+        anyhow::ensure!(s > 0.0 && s.is_finite(), "--spacing must be a positive distance, got {s}");
+    }
+    let mut params = RemeshParams {
+        spacing: args.spacing,
+        feature_angle: (!args.no_features).then_some(args.features),
+        weight: args.weight,
+        split_polygons: !args.keep_polygons,
+        ..Default::default()
+    };
+    if let Some(path) = &args.constraints {
+        let lines = rig::remesh_inputs::read_constraints(path)?;
+        params.lines = snap_lines(&mesh, &lines).with_context(|| format!("{}", path.display()))?;
+    }
+    if let Some(path) = &args.conductivity {
+        params.conductivity = Some(rig::remesh_inputs::read_face_values(path, mesh.faces.len())?);
+    }
+    let context = || format!("remeshing {}", args.input.display());
+    let (quads, report) = remesh(&mesh, &params).with_context(context)?;
+    rig::write_mesh(&args.out, &quads, &Default::default())?;
+    if let Some(path) = &args.lines {
+        let mut r = RemeshReport::default();
+        let traced = streamlines(&mesh, &params, &mut r).with_context(context)?;
+        rig::write_atomic(path, polylines_obj(&traced).as_bytes())?;
+    }
+    let mut o = std::io::stdout().lock();
+    if args.json {
+        serde_json::to_writer_pretty(&mut o, &report)?;
+        writeln!(o)?;
+        return Ok(());
+    }
+    let q = &report.quality;
+    writeln!(
+        o,
+        "{}: {} faces ({} quads, {:.1} %; {} triangles, {} larger) from {} triangles, spacing {:.4}",
+        args.out.display(),
+        q.faces,
+        q.quads,
+        100.0 * q.quad_fraction,
+        q.triangles,
+        q.polygons,
+        report.input_faces,
+        report.spacing
+    )?;
+    writeln!(
+        o,
+        "  corners: mean |angle − 90°| {:.2}°; Hausdorff to the input {:.4} ({:.3} % of the diagonal)",
+        q.mean_angle_error_deg,
+        q.hausdorff,
+        100.0 * q.hausdorff_relative
+    )?;
+    writeln!(
+        o,
+        "  {} constraint lines ({} as contours, {} as gradient lines), {:.1} % of their length on an edge; \
+         {} singularities, {} T-junctions",
+        report.contour_constraints + report.gradient_constraints,
+        report.contour_constraints,
+        report.gradient_constraints,
+        100.0 * q.constraint_alignment,
+        q.singularities,
+        report.graph.t_junctions
+    )?;
+    writeln!(
+        o,
+        "  {} non-manifold and {} boundary edges; {:.2} s (field {:.2}, streamlines {:.2}, quads {:.2})",
+        q.non_manifold_edges,
+        q.boundary_edges,
+        report.seconds.field + report.seconds.streamlines + report.seconds.quads,
+        report.seconds.field,
+        report.seconds.streamlines,
+        report.seconds.quads
+    )?;
+    Ok(())
+}
+
+/// The streamlines as OBJ polylines (`l` elements), one object per family, for a look at the field.
+fn polylines_obj(t: &Streamlines) -> String {
+    let mut s = String::from("# scanrig remesh streamlines: constraints, gradient lines, contours\n");
+    let mut next = 1usize;
+    for (group, pick) in [("constraints", 0u8), ("gradient", 1), ("contours", 2)] {
+        let _ = writeln!(s, "o {group}");
+        for (i, line) in t.lines.iter().enumerate() {
+            let kind = if i < t.constraints || t.on_boundary[i] {
+                0
+            } else if line.family == process::remesh::seeding::Family::Gradient {
+                1
+            } else {
+                2
+            };
+            if kind != pick || line.points.len() < 2 {
+                continue;
+            }
+            for p in &line.points {
+                let _ = writeln!(s, "v {} {} {}", p.x, p.y, p.z);
+            }
+            let ids: Vec<String> = (next..next + line.points.len()).map(|k| k.to_string()).collect();
+            let _ = writeln!(s, "l {}", ids.join(" "));
+            next += line.points.len();
+        }
+    }
+    s
+}
