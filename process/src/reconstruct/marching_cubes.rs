@@ -129,6 +129,11 @@ fn polygons_of(config: usize) -> Vec<Vec<u8>> {
 /// (the thesis interpolates quadratically) is solved by Newton's method from the linear estimate.
 /// Falls back to linear where an outer sample is missing or the cubic leaves the edge.
 fn edge_crossing(v0: Option<f32>, va: f32, vb: f32, v3: Option<f32>, iso: f32) -> f32 {
+    // An end that is not a number (NaN, or the −∞ that closes the grid's border) leaves no slope to
+    // interpolate along: the midpoint, rather than the NaN that ∞/∞ would give.
+    if !(va.is_finite() && vb.is_finite()) {
+        return 0.5;
+    }
     let linear = if (vb - va).abs() > 0.0 { ((iso - va) / (vb - va)).clamp(0.0, 1.0) } else { 0.5 };
     let (Some(v0), Some(v3)) = (v0, v3) else { return linear };
     if !(v0.is_finite() && v3.is_finite() && va.is_finite() && vb.is_finite()) {
@@ -338,5 +343,19 @@ mod tests {
         });
         let t = topology(&m);
         assert!(t.is_closed_oriented_manifold() && t.components > 10, "{t:?}");
+    }
+
+    #[test]
+    fn a_field_inside_up_to_an_infinite_border_gives_finite_vertices() {
+        // What the FFT reconstruction does to close open scans: the border layer is −∞, and where the
+        // field is inside right up to it the surface runs along the border. ∞/∞ once made NaN there.
+        let n = 8;
+        let frame = GridFrame { dims: [n; 3], origin: Point3::origin(), spacing: 1.0 };
+        let m = marching_cubes(&frame, 0.5, |i, j, k| {
+            if [i, j, k].iter().any(|&c| c == 0 || c == n - 1) { f32::NEG_INFINITY } else { 1.0 }
+        });
+        assert!(!m.faces.is_empty());
+        assert!(m.vertices.iter().all(|p| p.coords.iter().all(|c| c.is_finite())));
+        assert!(topology(&m).is_closed_oriented_manifold());
     }
 }

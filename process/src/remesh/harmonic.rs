@@ -94,6 +94,20 @@ pub fn field_with_rows(
         value[v] = x;
         is_fixed[v] = true;
     }
+    // Vertices on no face with an area are not part of the surface (left over by pruning, or only on
+    // slivers): no equation involves them, so they are held at 0 rather than left singular.
+    let mut on_surface = vec![false; n];
+    for face in &mesh.faces {
+        let p = face.map(|i| mesh.vertices[i as usize]);
+        if (p[1] - p[0]).cross(&(p[2] - p[0])).norm() > 0.0 {
+            face.iter().for_each(|&v| on_surface[v as usize] = true);
+        }
+    }
+    for v in 0..n {
+        if !on_surface[v] {
+            is_fixed[v] = true;
+        }
+    }
     // Unknowns: the free vertices, numbered in order.
     let mut unknown = vec![usize::MAX; n];
     let mut free = 0;

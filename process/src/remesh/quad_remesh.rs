@@ -71,6 +71,9 @@ pub enum RemeshError {
     /// The mesh has no faces.
     #[error("the mesh has no faces")]
     Empty,
+    /// A vertex position is NaN or infinite.
+    #[error("vertex {0} is not a finite point")]
+    NonFinite(usize),
     /// A constraint line is unusable.
     #[error("constraint line {0}: {1}")]
     BadLine(usize, String),
@@ -165,6 +168,9 @@ pub fn streamlines(
 ) -> Result<Streamlines, RemeshError> {
     if mesh.faces.is_empty() {
         return Err(RemeshError::Empty);
+    }
+    if let Some(v) = mesh.vertices.iter().position(|p| !p.coords.iter().all(|c| c.is_finite())) {
+        return Err(RemeshError::NonFinite(v));
     }
     let t0 = Instant::now();
     report.input_faces = mesh.faces.len();
