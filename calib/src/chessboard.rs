@@ -3,9 +3,10 @@
 //! alternates dark and light four times (not an L-corner or an edge), then a grid grown from a seed
 //! by predicting each next corner from the ones already found, so perspective and lens bending are
 //! followed step by step. The grid is ordered as the board frame says (origin on the first inner
-//! corner, the square diagonally outside it dark, x along a row, z out of the printed face toward the
-//! camera) and refined to sub-pixel accuracy by the gradient-orthogonality condition of
-//! OpenCV's `cornerSubPix`.
+//! corner, the square diagonally outside it dark, x along a row, y down a column as seen on the
+//! printed side) and refined to sub-pixel accuracy: the gradient-orthogonality condition of
+//! OpenCV's `cornerSubPix` to settle on the junction, then the saddle point of a quadratic fitted to
+//! the blurred image around it.
 
 use crate::gray::Gray;
 use rig::math::{Point2, Vector2};
@@ -218,8 +219,14 @@ pub fn find_corners(img: &Gray, cols: usize, rows: usize) -> Result<Vec<Point2>,
                     let oriented = orient(img, corners, cols, rows);
                     let step = (oriented[1] - oriented[0]).norm().min((oriented[cols] - oriented[0]).norm());
                     let half = ((0.3 * step).round() as usize).clamp(2, 12);
-                    let fine = img.blur(0.7);
-                    return Ok(oriented.iter().map(|p| refine(&fine, *p, half)).collect());
+                    // Gradient orthogonality to settle on the junction, then the saddle of the
+                    // blurred image, which averages the hard edges of a sharp image best.
+                    // σ 2.5 px and a 5 px window: more blur averages the hard edges of a sharp
+                    // image better but shifts the saddle of a foreshortened junction (measured on
+                    // the simulated views: mean error 0.14 px at σ 1.5, 0.10 at 2.5, 0.08 at 5,
+                    // with the focal length drifting up as the blur grows).
+                    let (sharp, soft) = (img.blur(0.7), img.blur(2.5));
+                    return Ok(oriented.iter().map(|p| refine_saddle(&soft, refine(&sharp, *p, half), 5)).collect());
                 }
                 None => best_partial = best_partial.max(grid.len().min(expected)),
             }
@@ -263,21 +270,22 @@ fn board_in(grid: &Grid, cols: usize, rows: usize) -> Option<Vec<usize>> {
     None
 }
 
-/// Reorders row-major corners so the board frame is right-handed with z toward the camera and the
-/// square diagonally outside corner 0 is dark.
+/// Reorders row-major corners so that, in the image, turning from the +i to the +j direction is
+/// clockwise (y down), as the board frame seen from its printed side, and the square diagonally
+/// outside corner 0 is dark.
 fn orient(img: &Gray, mut c: Vec<Point2>, cols: usize, rows: usize) -> Vec<Point2> {
     let flip_j = |c: &[Point2]| -> Vec<Point2> {
         (0..rows).rev().flat_map(|j| (0..cols).map(move |i| (i, j))).map(|(i, j)| c[j * cols + i]).collect()
     };
     let rotate = |c: &[Point2]| -> Vec<Point2> { c.iter().rev().copied().collect() };
     let (di, dj) = (c[1] - c[0], c[cols] - c[0]);
-    if di.x * dj.y - di.y * dj.x > 0.0 {
+    if di.x * dj.y - di.y * dj.x < 0.0 {
         c = flip_j(&c);
     }
     let dark_outside = |c: &[Point2]| {
         let (di, dj) = (c[1] - c[0], c[cols] - c[0]);
         let p = c[0] - (di + dj) * 0.5;
-        let q = c[0] + (di + dj) * 0.5; // the square inside, which has the other colour
+        let q = c[0] + (di - dj) * 0.5; // the square beside it, which has the other colour
         img.sample(p.x, p.y) < img.sample(q.x, q.y)
     };
     let here = dark_outside(&c);
@@ -295,6 +303,43 @@ fn orient(img: &Gray, mut c: Vec<Point2>, cols: usize, rows: usize) -> Vec<Point
             }
         }
     }
+}
+
+/// Sub-pixel corner position as the saddle point of a quadratic fitted to the (blurred) image in a
+/// window around the estimate, re-centred until it settles.
+pub fn refine_saddle(blurred: &Gray, start: Point2, radius: usize) -> Point2 {
+    let mut q = start;
+    let r = radius as isize;
+    for _ in 0..10 {
+        // Least squares for f = a x² + b xy + c y² + d x + e y + g, in offsets from q.
+        let mut ata = nalgebra::SMatrix::<f64, 6, 6>::zeros();
+        let mut atb = nalgebra::SVector::<f64, 6>::zeros();
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let (x, y) = (dx as f64, dy as f64);
+                let row = nalgebra::SVector::<f64, 6>::from_row_slice(&[x * x, x * y, y * y, x, y, 1.0]);
+                let f = blurred.sample(q.x + x, q.y + y) as f64;
+                ata += row * row.transpose();
+                atb += row * f;
+            }
+        }
+        let Some(c) = ata.cholesky().map(|ch| ch.solve(&atb)) else { return q };
+        let (a, b, cc, d, e) = (c[0], c[1], c[2], c[3], c[4]);
+        let det = 4.0 * a * cc - b * b;
+        if det >= 0.0 {
+            return q; // not a saddle
+        }
+        let ox = (-2.0 * cc * d + b * e) / det;
+        let oy = (-2.0 * a * e + b * d) / det;
+        if ox.abs() > radius as f64 || oy.abs() > radius as f64 {
+            return q;
+        }
+        q = Point2::new(q.x + ox, q.y + oy);
+        if ox.abs() < 1e-3 && oy.abs() < 1e-3 {
+            break;
+        }
+    }
+    q
 }
 
 /// Sub-pixel corner position: the point `q` where every image gradient in a window is orthogonal to
@@ -335,4 +380,74 @@ pub fn refine(img: &Gray, start: Point2, half: usize) -> Point2 {
         }
     }
     q
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `cols × rows` (inner corners) board of `square` px squares, rotated by `angle`, with corner 0
+    /// at `origin`, rendered 4 × 4 supersampled into a `w × h` grey image; returns the image and the
+    /// true corners in board order.
+    fn render(
+        w: usize,
+        h: usize,
+        cols: usize,
+        rows: usize,
+        square: f64,
+        angle: f64,
+        origin: (f64, f64),
+    ) -> (Gray, Vec<Point2>) {
+        let (c, s) = (angle.cos(), angle.sin());
+        let to_img =
+            |i: f64, j: f64| Point2::new(origin.0 + square * (c * i - s * j), origin.1 + square * (s * i + c * j));
+        let mut data = vec![0f32; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let mut acc = 0.0;
+                for sy in 0..4 {
+                    for sx in 0..4 {
+                        let (px, py) = (
+                            x as f64 - 0.375 + 0.25 * sx as f64 - origin.0,
+                            y as f64 - 0.375 + 0.25 * sy as f64 - origin.1,
+                        );
+                        let (i, j) = ((c * px + s * py) / square, (-s * px + c * py) / square);
+                        let inside = i >= -1.0 && j >= -1.0 && i < cols as f64 && j < rows as f64;
+                        let dark = inside && ((i + 1.0).floor() as i64 + (j + 1.0).floor() as i64) % 2 == 0;
+                        let on_board = i >= -2.0 && j >= -2.0 && i < cols as f64 + 1.0 && j < rows as f64 + 1.0;
+                        acc += if dark {
+                            0.05
+                        } else if on_board {
+                            0.85
+                        } else {
+                            0.1
+                        };
+                    }
+                }
+                data[y * w + x] = acc / 16.0;
+            }
+        }
+        let truth =
+            (0..rows).flat_map(|j| (0..cols).map(move |i| (i, j))).map(|(i, j)| to_img(i as f64, j as f64)).collect();
+        (Gray { width: w, height: h, data }, truth)
+    }
+
+    #[test]
+    fn a_rotated_board_is_found_in_board_order_to_a_tenth_of_a_pixel() {
+        let (img, truth) = render(420, 340, 7, 5, 34.0, 0.3, (120.0, 70.0));
+        let found = find_corners(&img, 7, 5).unwrap();
+        let worst = found.iter().zip(&truth).map(|(a, b)| (a - b).norm()).fold(0.0, f64::max);
+        assert!(worst < 0.1, "worst corner {worst} px off");
+        // The transposed request finds nothing: the board has 7 × 5 corners, not 5 × 7 of another.
+        assert!(find_corners(&img, 8, 5).is_err());
+    }
+
+    #[test]
+    fn a_board_cut_by_the_frame_is_reported_partial() {
+        let (img, _) = render(300, 240, 7, 5, 34.0, 0.0, (120.0, 60.0));
+        match find_corners(&img, 7, 5) {
+            Err(NotFound::Partial { found, expected: 35 }) => assert!(found >= 20, "{found}"),
+            other => panic!("{other:?}"),
+        }
+    }
 }

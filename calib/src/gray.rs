@@ -17,7 +17,11 @@ impl Gray {
     /// Luminance of an 8-bit frame (grey or RGB).
     pub fn from_image(img: &Image8) -> Self {
         let g = if img.channels == 1 { img.clone() } else { img.to_gray() };
-        Gray { width: g.width as usize, height: g.height as usize, data: g.data.iter().map(|&v| v as f32 / 255.0).collect() }
+        Gray {
+            width: g.width as usize,
+            height: g.height as usize,
+            data: g.data.iter().map(|&v| v as f32 / 255.0).collect(),
+        }
     }
 
     /// The value at integer coordinates, clamped to the border.

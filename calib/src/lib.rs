@@ -1,14 +1,19 @@
 //! # calib — estimating a scanner rig
 //!
-//! Operators calibrate before they scan; a scanner is only as accurate as its calibration. This crate
-//! turns capture folders into a [`rig::Rig`]:
-//!
-//! - chessboard corner detection with sub-pixel refinement;
-//! - camera intrinsics (Zhang's initialisation, then Levenberg–Marquardt over OpenCV's five-term model);
-//! - the projector by local homographies of decoded Gray codes (Moreno–Taubin) and stereo refinement;
-//! - laser planes from lit boards, robustly fitted;
-//! - the turntable axis from a board swept through angles.
-//!
-//! It depends only on the vocabulary crate [`rig`]. The estimators arrive with the calibration issue;
-//! until then the crate holds no code, so nothing here pretends to calibrate.
+//! Operators calibrate before they scan; a scanner is only as accurate as its calibration. From
+//! calibration captures to the numbers in `rig.toml`: chessboard corners found in pure Rust
+//! ([`chessboard`], on the grey images of [`gray`]), plane homographies ([`homography`]), Zhang's
+//! closed-form intrinsics ([`zhang`]) refined with distortion and per-view poses by
+//! Levenberg–Marquardt ([`camera_calib`]). The projector, laser planes and turntable axis build on
+//! these (still to come: the projector by local homographies, laser planes, the turntable axis).
 #![deny(missing_docs)]
+
+pub mod camera_calib;
+pub mod chessboard;
+pub mod gray;
+pub mod homography;
+pub mod zhang;
+
+pub use camera_calib::{CalibError, CameraCalibration, CameraOptions, View, calibrate_camera};
+pub use chessboard::{NotFound, find_corners};
+pub use gray::Gray;

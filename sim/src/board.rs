@@ -110,7 +110,8 @@ pub fn standing_on_platter(board: &Board) -> Isometry3 {
     Isometry3::from_parts(Translation3::new(-c.x, 0.0, height), rot)
 }
 
-/// Simulates calibration captures of `board` into `out`: one view per pose, frames as the rig's
+/// Simulates calibration captures of `board` into `out`: one view per pose (fixed poses without the
+/// platter, which a hand-held board is away from), frames as the rig's
 /// program (structured light if it has a projector, then laser-off and one frame per laser), and in
 /// `truth/view_NNN/` besides the usual maps `board_pose.npy` (4×4 camera_from_board) and `corners.npy`
 /// (N×2 distorted pixel positions of the inner corners, row-major; NaN behind the camera).
@@ -141,7 +142,9 @@ pub fn simulate_board(
     for (v, (&angle, fixed)) in angles.iter().zip(&fixed).enumerate() {
         let t0 = Instant::now();
         let mut scene = Scene::default();
-        if cfg.scene.platter_radius_mm > 0.0 && cfg.rig.turntable.is_some() {
+        // A board at fixed poses is held up in front of the camera, away from the turntable: with
+        // the platter in the scene it hid the lower corners of most default poses.
+        if cfg.scene.platter_radius_mm > 0.0 && cfg.rig.turntable.is_some() && fixed.is_none() {
             scene.parts.push(Part {
                 kind: PartKind::Platter,
                 surface: Box::new(crate::surface::Disc { radius: cfg.scene.platter_radius_mm }),
