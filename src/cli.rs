@@ -39,6 +39,8 @@ pub enum Command {
     Reconstruct(ReconstructArgs),
     /// Remesh a triangle mesh into quads along the streamlines of a designed harmonic field (thesis ch. 6).
     Remesh(RemeshArgs),
+    /// Calibrate a rig from chessboard captures (camera intrinsics so far) into a rig file.
+    Calibrate(CalibrateArgs),
     /// Decode a folder of structured-light images made by other tools into a projector correspondence map.
     Decode(DecodeArgs),
     /// Simulate a 36-view scan of the built-in object and process it: the whole pipeline on a virtual rig.
@@ -361,6 +363,54 @@ pub struct RemeshArgs {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct CalibrateArgs {
+    /// What to calibrate.
+    #[arg(value_enum)]
+    pub target: CalibrateTarget,
+    /// A capture folder (`scanrig sim --board` writes one; its lit frames are used) or a folder of PNGs.
+    pub captures: PathBuf,
+    /// The rig file to write; an existing one keeps everything but what is calibrated.
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Inner corners of the chessboard, COLSxROWS.
+    #[arg(long, value_parser = parse_size, default_value = "9x6")]
+    pub board: (u32, u32),
+    /// Square size, mm.
+    #[arg(long, default_value_t = 15.0)]
+    pub square: f64,
+    /// Transpose each image first (a camera mounted on its side).
+    #[arg(long)]
+    pub transpose: bool,
+    /// Mirror each image left to right (after transposing).
+    #[arg(long)]
+    pub flip: bool,
+    /// Keep fy/fx at Zhang's estimate.
+    #[arg(long)]
+    pub fix_aspect_ratio: bool,
+    /// Keep the principal point at the image centre.
+    #[arg(long)]
+    pub fix_principal_point: bool,
+    /// No tangential distortion.
+    #[arg(long)]
+    pub zero_tangential: bool,
+    /// No k3 term.
+    #[arg(long)]
+    pub fix_k3: bool,
+    /// Also export the camera in OpenCV's YAML layout.
+    #[arg(long)]
+    pub yaml: Option<PathBuf>,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CalibrateTarget {
+    /// Camera intrinsics and distortion from views of a chessboard.
+    Camera,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,6 +1,7 @@
 //! `scanrig`: the command line. Arguments are parsed here ([`cli`]), turned into calls of the library
 //! crates, and results printed; no algorithm lives in the binary.
 
+mod calibrate_cmd;
 mod cli;
 mod convert;
 mod decode_cmd;
@@ -31,6 +32,7 @@ fn main() -> ExitCode {
         cli::Command::Register(a) => register_cmd::run(&a),
         cli::Command::Remesh(a) => remesh_cmd::run(&a),
         cli::Command::Demo(a) => demo::run(&a),
+        cli::Command::Calibrate(a) => calibrate_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

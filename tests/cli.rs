@@ -40,9 +40,20 @@ fn help_lists_every_subcommand_with_one_line() {
     let o = scanrig(&[&"--help"]);
     assert!(o.status.success());
     let text = stdout(&o);
-    for cmd in
-        ["info", "convert", "sim", "process", "denoise", "register", "fuse", "reconstruct", "remesh", "decode", "demo"]
-    {
+    for cmd in [
+        "info",
+        "convert",
+        "sim",
+        "process",
+        "denoise",
+        "register",
+        "fuse",
+        "reconstruct",
+        "remesh",
+        "calibrate",
+        "decode",
+        "demo",
+    ] {
         let line =
             text.lines().find(|l| l.trim_start().starts_with(cmd)).unwrap_or_else(|| panic!("{cmd} not in\n{text}"));
         assert!(line.len() > cmd.len() + 10, "{cmd} has no description: {line}");
@@ -521,4 +532,58 @@ fn remesh_turns_a_box_into_quads_along_its_edges_and_names_bad_inputs() {
     assert!(!o.status.success() && stderr(&o).contains("c.txt") && stderr(&o).contains("3 values"), "{}", stderr(&o));
     let o = scanrig(&[&"remesh", &input, &"-o", &out, &"--spacing", &"0"]);
     assert!(!o.status.success() && stderr(&o).contains("--spacing"), "{}", stderr(&o));
+}
+
+#[test]
+fn calibrate_camera_recovers_the_simulated_camera_and_names_bad_folders() {
+    let d = Dir::new();
+    let caps = d.path("caps");
+    let o = scanrig(&[
+        &"sim",
+        &"--board",
+        &"9x6",
+        &"--square",
+        &"11",
+        &"--poses",
+        &"15",
+        &"--resolution",
+        &"640x512",
+        &"--out",
+        &caps,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let truth = rig::Rig::read(&caps.join("rig.toml")).unwrap().camera;
+    let out = d.path("rig.toml");
+    let yaml = d.path("camera.yml");
+    let o = scanrig(&[
+        &"calibrate",
+        &"camera",
+        &caps,
+        &"-o",
+        &out,
+        &"--board",
+        &"9x6",
+        &"--square",
+        &"11",
+        &"--yaml",
+        &yaml,
+        &"--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    let cam = rig::Rig::read(&out).unwrap().camera;
+    assert!((cam.fx / truth.fx - 1.0).abs() < 0.005, "fx {} vs {}: {report}", cam.fx, truth.fx);
+    assert!((cam.fy / truth.fy - 1.0).abs() < 0.005, "fy {} vs {}", cam.fy, truth.fy);
+    assert!(report["rms_px"].as_f64().unwrap() < 0.3, "{report}");
+    assert_eq!(rig::opencv_yaml::read_camera(&yaml).unwrap(), cam);
+    // A folder with one image, and one with images of two sizes: each named.
+    let one = d.path("one");
+    std::fs::create_dir_all(&one).unwrap();
+    std::fs::copy(caps.join("frames/view_000/00_white.png"), one.join("a.png")).unwrap();
+    let o = scanrig(&[&"calibrate", &"camera", &one, &"-o", &d.path("x.toml"), &"--square", &"11"]);
+    assert!(!o.status.success() && stderr(&o).contains("at least 3"), "{}", stderr(&o));
+    let small = rig::image::Image8::gray(32, 32, vec![0; 32 * 32]);
+    rig::image::write_png(&one.join("b.png"), &small, true).unwrap();
+    let o = scanrig(&[&"calibrate", &"camera", &one, &"-o", &d.path("x.toml")]);
+    assert!(!o.status.success() && stderr(&o).contains("b.png") && stderr(&o).contains("a.png"), "{}", stderr(&o));
 }
