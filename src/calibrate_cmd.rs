@@ -3,7 +3,6 @@
 use crate::cli::{CalibrateArgs, CalibrateTarget};
 use anyhow::{Context, Result, bail};
 use calib::{CameraOptions, Gray, View, calibrate_camera, find_corners};
-use rig::image::Image8;
 use rig::math::{Point3, Real};
 use rig::{Manifest, Pattern, Rig};
 use std::io::Write;
@@ -15,7 +14,8 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     }
 }
 
-/// The images to look for the board in: a capture folder's lit frames, or every PNG in a folder.
+/// The images to look for the board in: a capture folder's lit frames, or every PNG or JPEG in a
+/// folder, in name order.
 fn images(dir: &Path) -> Result<Vec<PathBuf>> {
     if dir.join("scan.json").is_file() {
         let manifest = Manifest::read(dir)?;
@@ -33,29 +33,13 @@ fn images(dir: &Path) -> Result<Vec<PathBuf>> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .with_context(|| format!("reading {}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("png")))
+        .filter(|p| p.extension().is_some_and(|e| ["png", "jpg", "jpeg"].iter().any(|x| e.eq_ignore_ascii_case(x))))
         .collect();
     files.sort();
     if files.is_empty() {
         bail!("{}: no scan.json and no PNG images", dir.display());
     }
     Ok(files)
-}
-
-/// Transposes and/or mirrors left–right a grey image, as cameras mounted on their side need.
-fn reorient(img: &Image8, transpose: bool, flip: bool) -> Image8 {
-    let g = img.to_gray();
-    let (w, h) = (g.width as usize, g.height as usize);
-    let (nw, nh) = if transpose { (h, w) } else { (w, h) };
-    let mut data = vec![0u8; w * h];
-    for y in 0..nh {
-        for x in 0..nw {
-            let sx = if flip { nw - 1 - x } else { x };
-            let (ox, oy) = if transpose { (y, sx) } else { (sx, y) };
-            data[y * nw + x] = g.data[oy * w + ox];
-        }
-    }
-    Image8::gray(nw as u32, nh as u32, data)
 }
 
 fn camera(args: &CalibrateArgs) -> Result<()> {
@@ -70,7 +54,13 @@ fn camera(args: &CalibrateArgs) -> Result<()> {
     let mut size: Option<(u32, u32, PathBuf)> = None;
     let (mut views, mut used, mut missed) = (Vec::new(), Vec::new(), Vec::new());
     for (k, file) in files.iter().enumerate() {
-        let img = reorient(&rig::image::read_png(file)?, args.transpose, args.flip);
+        let mut img = rig::image::read_image(file)?;
+        if args.transpose {
+            img = img.transposed();
+        }
+        if args.flip {
+            img = img.mirrored();
+        }
         match &size {
             None => size = Some((img.width, img.height, file.clone())),
             Some((w, h, first)) if (*w, *h) != (img.width, img.height) => bail!(

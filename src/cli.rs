@@ -370,7 +370,8 @@ pub struct CalibrateArgs {
     /// What to calibrate.
     #[arg(value_enum)]
     pub target: CalibrateTarget,
-    /// A capture folder (`scanrig sim --board` writes one; its lit frames are used) or a folder of PNGs.
+    /// A capture folder (`scanrig sim --board` writes one; its lit frames are used) or a folder of PNG
+    /// or JPEG images.
     pub captures: PathBuf,
     /// The rig file to write; an existing one keeps everything but what is calibrated.
     #[arg(long, short)]

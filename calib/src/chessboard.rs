@@ -120,9 +120,11 @@ fn grow(points: &[Point2], seed: usize, used_global: &[bool]) -> Option<Grid> {
     near.truncate(8);
     let &(du, iu) = near.first()?;
     let u = points[iu] - p;
+    // The second direction: the nearest neighbour well off the first one's line; up to 5 times as
+    // far, since an oblique board's squares are foreshortened along one axis.
     let &(_, iv) = near.iter().find(|&&(d, i)| {
         let v = points[i] - p;
-        d < 2.0 * du && (u.dot(&v) / (u.norm() * v.norm())).abs() < 0.5
+        d < 5.0 * du && (u.dot(&v) / (u.norm() * v.norm())).abs() < 0.7
     })?;
     let mut grid: Grid = HashMap::new();
     let mut used = used_global.to_vec();
@@ -245,8 +247,7 @@ fn board_in(grid: &Grid, cols: usize, rows: usize) -> Option<Vec<usize>> {
     let (imin, imax) = (grid.keys().map(|c| c.0).min()?, grid.keys().map(|c| c.0).max()?);
     let (jmin, jmax) = (grid.keys().map(|c| c.1).min()?, grid.keys().map(|c| c.1).max()?);
     for (w, h, transposed) in [(cols as i32, rows as i32, false), (rows as i32, cols as i32, true)] {
-        // Every placement of a w × h window that is completely found; more than one means the grid
-        // has extra cells that could be the board on either side — ambiguous, so refused.
+        // Every placement of a w × h window that is completely found.
         let mut hits = Vec::new();
         for i0 in imin..=imax - w + 1 {
             for j0 in jmin..=jmax - h + 1 {
@@ -255,8 +256,11 @@ fn board_in(grid: &Grid, cols: usize, rows: usize) -> Option<Vec<usize>> {
                 }
             }
         }
-        if hits.len() == 1 {
-            let (i0, j0) = hits[0];
+        // Several placements: the grid caught extra corner-like points beside the board; take the
+        // placement of the strongest corners (candidates come sorted by saddle strength).
+        if let Some(&(i0, j0)) = hits.iter().min_by_key(|&&(i0, j0)| {
+            (0..w).flat_map(|a| (0..h).map(move |b| (a, b))).map(|(a, b)| grid[&(i0 + a, j0 + b)]).sum::<usize>()
+        }) {
             let mut out = Vec::with_capacity(cols * rows);
             for r in 0..rows as i32 {
                 for c in 0..cols as i32 {

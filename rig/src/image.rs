@@ -26,6 +26,33 @@ impl Image8 {
         Image8 { width, height, channels: 1, data }
     }
 
+    /// The image transposed (row r, column c → row c, column r): a camera mounted on its side.
+    pub fn transposed(&self) -> Image8 {
+        let (w, h, ch) = (self.width as usize, self.height as usize, self.channels as usize);
+        let mut data = vec![0u8; self.data.len()];
+        for y in 0..h {
+            for x in 0..w {
+                let (src, dst) = ((y * w + x) * ch, (x * h + y) * ch);
+                data[dst..dst + ch].copy_from_slice(&self.data[src..src + ch]);
+            }
+        }
+        Image8 { width: self.height, height: self.width, channels: self.channels, data }
+    }
+
+    /// The image mirrored left to right.
+    pub fn mirrored(&self) -> Image8 {
+        let (w, ch) = (self.width as usize, self.channels as usize);
+        let mut data = self.data.clone();
+        for row in data.chunks_exact_mut(w * ch) {
+            for x in 0..w / 2 {
+                for c in 0..ch {
+                    row.swap(x * ch + c, (w - 1 - x) * ch + c);
+                }
+            }
+        }
+        Image8 { data, ..self.clone() }
+    }
+
     /// Grey by Rec. 601 luma (what OpenCV's `cvtColor(…, COLOR_RGB2GRAY)` computes).
     pub fn to_gray(&self) -> Image8 {
         if self.channels == 1 {
@@ -99,9 +126,45 @@ pub fn read_png(path: &Path) -> Result<Image8, Error> {
     decode_png(&read_bytes(path)?).map_err(|e| e.with_path(path))
 }
 
+/// Decodes baseline or progressive JPEG bytes to grey (what corner detection and laser peaks use;
+/// the camera streams of Raspberry Pi and webcam scanners are JPEG).
+pub fn decode_jpeg(bytes: &[u8]) -> Result<Image8, ParseError> {
+    use zune_core::bytestream::ZCursor;
+    use zune_core::colorspace::ColorSpace;
+    use zune_core::options::DecoderOptions;
+    let bad = |m: String| ParseError::new(Location::File, Problem::Invalid(m));
+    let options = DecoderOptions::default().jpeg_set_out_colorspace(ColorSpace::Luma);
+    let mut dec = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
+    dec.decode_headers().map_err(|e| bad(format!("not a readable JPEG: {e:?}")))?;
+    let info = dec.info().ok_or_else(|| bad("a JPEG without a frame header".into()))?;
+    let (w, h) = (info.width as u32, info.height as u32);
+    let data = dec.decode().map_err(|e| bad(format!("corrupt JPEG data: {e:?}")))?;
+    if data.len() != (w as usize) * (h as usize) {
+        return Err(bad(format!("{} grey values for a {w}×{h} image", data.len())));
+    }
+    Ok(Image8::gray(w, h, data))
+}
+
+/// Reads a camera frame by its extension: PNG, or JPEG (`.jpg`, `.jpeg`) as grey.
+pub fn read_image(path: &Path) -> Result<Image8, Error> {
+    let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    match ext.as_str() {
+        "jpg" | "jpeg" => decode_jpeg(&read_bytes(path)?).map_err(|e| e.with_path(path)),
+        _ => read_png(path),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn transposing_and_mirroring_move_pixels_where_they_should() {
+        let g = Image8::gray(3, 2, vec![1, 2, 3, 4, 5, 6]);
+        assert_eq!(g.transposed(), Image8::gray(2, 3, vec![1, 4, 2, 5, 3, 6]));
+        assert_eq!(g.mirrored(), Image8::gray(3, 2, vec![3, 2, 1, 6, 5, 4]));
+        assert_eq!(g.transposed().transposed(), g);
+    }
 
     #[test]
     fn png_round_trip_grey_and_rgb() {

@@ -29,6 +29,7 @@ fn read_everything(bytes: &[u8]) {
     let _ = rig::Rig::from_toml_str(&String::from_utf8_lossy(bytes));
     let _ = rig::npy::parse(bytes);
     let _ = rig::image::decode_png(bytes);
+    let _ = rig::image::decode_jpeg(bytes);
     let _ = rig::Manifest::from_json(bytes);
     let _ = rig::remesh_inputs::parse_constraints(bytes);
     let _ = rig::remesh_inputs::parse_face_values(bytes, 3);
