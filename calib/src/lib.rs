@@ -4,16 +4,19 @@
 //! calibration captures to the numbers in `rig.toml`: chessboard corners found in pure Rust
 //! ([`chessboard`], on the grey images of [`gray`]), plane homographies ([`homography`]), Zhang's
 //! closed-form intrinsics ([`zhang`]) refined with distortion and per-view poses by
-//! Levenberg–Marquardt ([`camera_calib`]). The projector, laser planes and turntable axis build on
-//! these (still to come: the projector by local homographies, laser planes, the turntable axis).
+//! Levenberg–Marquardt ([`camera_calib`]), and the turntable axis from a board swept on the platter
+//! ([`turntable_axis`]). The projector, laser planes and turntable axis build on
+//! these (still to come: the projector by local homographies, laser planes).
 #![deny(missing_docs)]
 
 pub mod camera_calib;
 pub mod chessboard;
 pub mod gray;
 pub mod homography;
+pub mod turntable_axis;
 pub mod zhang;
 
 pub use camera_calib::{CalibError, CameraCalibration, CameraOptions, View, calibrate_camera};
 pub use chessboard::{NotFound, find_corners};
 pub use gray::Gray;
+pub use turntable_axis::{AxisFit, fit_axis};

@@ -1,0 +1,203 @@
+//! The turntable axis from a board standing on the platter, swept through angles: every corner
+//! turns on a circle about the axis. The direction is the rotation axis between the board's poses;
+//! each corner's circle (a least-squares circle in the plane across that direction) has its centre
+//! on the axis; the platter centre is where the axis meets the plane the board stands on.
+
+use crate::camera_calib::CalibError;
+use crate::homography::homography;
+use crate::zhang;
+use rig::math::{Isometry3, Matrix3, Point2, Point3, Real, Vector3};
+use rig::{PinholeCamera, TurntableAxis};
+use serde::Serialize;
+
+/// What [`fit_axis`] found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AxisFit {
+    /// The axis: platter centre and upward direction, camera frame.
+    #[serde(skip)]
+    pub axis: TurntableAxis,
+    /// RMS distance of the corners from their fitted circles (mm).
+    pub circle_rms_mm: Real,
+    /// Views used.
+    pub views: usize,
+}
+
+/// The board pose (camera_from_board) from its corners: the homography of the undistorted rays to
+/// start, then Levenberg–Marquardt on the reprojection error (the homography alone is biased in
+/// depth by the pixel noise it does not weigh).
+pub fn board_pose(camera: &PinholeCamera, object: &[Point3], corners: &[Point2]) -> Option<Isometry3> {
+    let plane: Vec<Point2> = object.iter().map(|p| Point2::new(p.x, p.y)).collect();
+    let rays: Vec<Point2> = corners.iter().map(|p| camera.pixel_to_normalized(*p)).collect::<Option<_>>()?;
+    let start = zhang::pose(&Matrix3::identity(), &homography(&plane, &rays)?)?;
+    Some(refine_pose(camera, object, corners, start))
+}
+
+fn refine_pose(camera: &PinholeCamera, object: &[Point3], corners: &[Point2], start: Isometry3) -> Isometry3 {
+    type V6 = nalgebra::SVector<Real, 6>;
+    let apply = |x: &V6| {
+        Isometry3::from_parts(
+            rig::math::Translation3::new(x[3], x[4], x[5]),
+            rig::math::Rotation3::from_scaled_axis(Vector3::new(x[0], x[1], x[2])).into(),
+        )
+    };
+    let residuals = |x: &V6| -> Vec<Real> {
+        let pose = apply(x);
+        object
+            .iter()
+            .zip(corners)
+            .flat_map(|(o, c)| {
+                let p = camera.project(&(pose * o)).unwrap_or(Point2::new(1e6, 1e6));
+                [p.x - c.x, p.y - c.y]
+            })
+            .collect()
+    };
+    let mut x = V6::zeros();
+    x.fixed_rows_mut::<3>(0).copy_from(&start.rotation.scaled_axis());
+    x.fixed_rows_mut::<3>(3).copy_from(&start.translation.vector);
+    let mut r = residuals(&x);
+    let mut cost: Real = r.iter().map(|v| v * v).sum();
+    let mut mu = 1e-3;
+    for _ in 0..50 {
+        let mut jtj = nalgebra::SMatrix::<Real, 6, 6>::zeros();
+        let mut jtr = V6::zeros();
+        let cols: Vec<Vec<Real>> = (0..6)
+            .map(|k| {
+                let h = 1e-7 * x[k].abs().max(1.0);
+                let mut xp = x;
+                xp[k] += h;
+                residuals(&xp).iter().zip(&r).map(|(a, b)| (a - b) / h).collect()
+            })
+            .collect();
+        for i in 0..r.len() {
+            let row = V6::from_fn(|k, _| cols[k][i]);
+            jtj += row * row.transpose();
+            jtr += row * r[i];
+        }
+        let mut improved = false;
+        for _ in 0..10 {
+            let mut a = jtj;
+            for k in 0..6 {
+                a[(k, k)] += mu * jtj[(k, k)].max(1e-12);
+            }
+            let Some(step) = a.cholesky().map(|c| c.solve(&(-jtr))) else {
+                mu *= 10.0;
+                continue;
+            };
+            let xn = x + step;
+            let rn = residuals(&xn);
+            let cn: Real = rn.iter().map(|v| v * v).sum();
+            if cn < cost {
+                let done = cost - cn < 1e-12 * cost;
+                (x, r, cost, mu) = (xn, rn, cn, mu / 3.0);
+                improved = !done;
+                break;
+            }
+            mu *= 4.0;
+        }
+        if !improved {
+            break;
+        }
+    }
+    apply(&x)
+}
+
+/// Fits the axis from full-board corners in each view of a sweep. `object` are the board corners
+/// (board frame, mm); `platter` is a board-frame point on the platter plane (for a board standing
+/// on its bottom margin: `(0, (rows + 1)·square, 0)`).
+pub fn fit_axis(
+    camera: &PinholeCamera,
+    object: &[Point3],
+    views: &[Vec<Point2>],
+    platter: Point3,
+) -> Result<AxisFit, CalibError> {
+    let poses: Vec<Isometry3> = views.iter().filter_map(|c| board_pose(camera, object, c)).collect();
+    if poses.len() < 3 {
+        return Err(CalibError::TooFewViews(format!("{} views with a board pose; at least 3 are needed", poses.len())));
+    }
+    // Direction: the rotation axis from the first pose to each other one, weighted by the angle.
+    let r0 = poses[0].rotation;
+    let mut dir = Vector3::zeros();
+    for p in &poses[1..] {
+        let rel = p.rotation * r0.inverse();
+        let axis = rel.scaled_axis();
+        let sign = if dir.dot(&axis) < 0.0 { -1.0 } else { 1.0 };
+        dir += axis * sign;
+    }
+    if dir.norm() < 1e-3 {
+        return Err(CalibError::Degenerate("the board did not turn between views".into()));
+    }
+    let mut a = dir.normalize();
+    // Up, out of the platter: the board's −y (its rows run down the standing board).
+    let up = r0 * -Vector3::y();
+    if a.dot(&up) < 0.0 {
+        a = -a;
+    }
+    // A frame across the axis.
+    let e1 = a.cross(&if a.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() }).normalize();
+    let e2 = a.cross(&e1);
+    let mut centres = Vec::new();
+    let (mut sq, mut n) = (0.0, 0usize);
+    for x in object {
+        let pts: Vec<Point3> = poses.iter().map(|p| p * x).collect();
+        let uv: Vec<(Real, Real)> = pts.iter().map(|p| (p.coords.dot(&e1), p.coords.dot(&e2))).collect();
+        let Some((cu, cv, r)) = circle(&uv) else { continue };
+        let spread = uv.iter().map(|&(u, v)| ((u - cu).powi(2) + (v - cv).powi(2)).sqrt()).fold(0.0, Real::max);
+        if r < 1.0 || spread < 1e-9 {
+            continue; // a corner near the axis hardly moves: its circle says little
+        }
+        let h = pts.iter().map(|p| p.coords.dot(&a)).sum::<Real>() / pts.len() as Real;
+        for (&(u, v), p) in uv.iter().zip(&pts) {
+            let radial = ((u - cu).powi(2) + (v - cv).powi(2)).sqrt() - r;
+            let along = p.coords.dot(&a) - h;
+            sq += radial * radial + along * along;
+            n += 1;
+        }
+        centres.push((e1 * cu + e2 * cv + a * h, r));
+    }
+    if centres.len() < 2 {
+        return Err(CalibError::Degenerate("no corner turned on a measurable circle".into()));
+    }
+    // The centres lie on the axis; weight by radius (wider circles pin their centres better).
+    let wsum: Real = centres.iter().map(|c| c.1).sum();
+    let m = centres.iter().fold(Vector3::zeros(), |acc, (c, r)| acc + c * *r) / wsum;
+    // The platter plane's height along the axis, averaged over the views.
+    let t = poses.iter().map(|p| a.dot(&((p * platter).coords - m))).sum::<Real>() / poses.len() as Real;
+    let point = Point3::from(m + a * t);
+    Ok(AxisFit {
+        axis: TurntableAxis { point, direction: rig::math::UnitVector3::new_normalize(a) },
+        circle_rms_mm: (sq / n.max(1) as Real).sqrt(),
+        views: poses.len(),
+    })
+}
+
+/// The least-squares circle (Kåsa) through 2-D points: centre and radius.
+fn circle(p: &[(Real, Real)]) -> Option<(Real, Real, Real)> {
+    if p.len() < 3 {
+        return None;
+    }
+    // x² + y² + D x + E y + F = 0.
+    let mut ata = Matrix3::zeros();
+    let mut atb = Vector3::zeros();
+    for &(x, y) in p {
+        let row = Vector3::new(x, y, 1.0);
+        ata += row * row.transpose();
+        atb -= row * (x * x + y * y);
+    }
+    let s = ata.try_inverse()? * atb;
+    let (cx, cy) = (-s.x / 2.0, -s.y / 2.0);
+    let r2 = cx * cx + cy * cy - s.z;
+    (r2 > 0.0).then(|| (cx, cy, r2.sqrt()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn points_on_a_circle_give_it_back() {
+        let pts: Vec<(Real, Real)> =
+            (0..7).map(|k| (k as Real * 0.3).sin_cos()).map(|(s, c)| (3.0 + 5.0 * c, -2.0 + 5.0 * s)).collect();
+        let (cx, cy, r) = circle(&pts).unwrap();
+        assert!((cx - 3.0).abs() < 1e-9 && (cy + 2.0).abs() < 1e-9 && (r - 5.0).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,42 @@
+//! Issue 5, acceptance 1 (the turntable axis): a board standing on the simulated platter, swept
+//! through −60°…60°, against the simulator's axis.
+
+use calib::{Gray, find_corners, fit_axis};
+use rig::math::{Point3, Real};
+use rig::{Manifest, Pattern};
+
+#[test]
+fn a_board_swept_on_the_platter_gives_the_turntable_axis() {
+    let cfg = sim::SimConfig::from_toml_str(include_str!("../../configs/sim-structured-light.toml")).unwrap();
+    let truth = cfg.rig.turntable.expect("the structured-light rig has a turntable");
+    let board = sim::Board { cols: 9, rows: 6, square_mm: 11.0 };
+    let angles: Vec<Real> = (-6..=6).map(|k| k as Real * 10.0).collect();
+    let dir = std::env::temp_dir().join(format!("calib-axis-sim-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let opts = sim::ScanOptions { method: rig::Method::Board, seed: 3, truth: false };
+    sim::simulate_board(&cfg, &board, &sim::BoardPoses::Turntable(angles.clone()), opts, &dir, |_, _| {}).unwrap();
+    let manifest = Manifest::read(&dir).unwrap();
+    let mut views = Vec::new();
+    for view in &manifest.views {
+        let lit = view.frames.iter().find(|f| f.pattern == Pattern::White).unwrap();
+        let img = Gray::from_image(&rig::image::read_png(&dir.join(&lit.file)).unwrap());
+        if let Ok(c) = find_corners(&img, 9, 6) {
+            views.push(c);
+        }
+    }
+    let object: Vec<Point3> = board.corners();
+    let platter = Point3::new(0.0, (board.rows as Real + 1.0) * board.square_mm, 0.0);
+    let fit = fit_axis(&cfg.rig.camera, &object, &views, platter).unwrap();
+    let angle = fit.axis.direction.angle(&truth.direction).to_degrees();
+    let off = (fit.axis.point - truth.point).norm();
+    eprintln!(
+        "{} of {} views; axis direction {angle:.4}° off, platter centre {off:.3} mm off; circles RMS {:.4} mm",
+        views.len(),
+        angles.len(),
+        fit.circle_rms_mm
+    );
+    assert!(views.len() >= 10, "{} views", views.len());
+    assert!(angle <= 0.1, "direction {angle}°");
+    assert!(off <= 0.2, "point {off} mm");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
