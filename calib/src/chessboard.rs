@@ -112,7 +112,7 @@ fn is_x_junction(img: &Gray, p: &Point2, radius: f64) -> bool {
 /// A grid grown from a seed: cell → candidate index.
 type Grid = HashMap<(i32, i32), usize>;
 
-fn grow(points: &[Point2], seed: usize, used_global: &[bool]) -> Option<Grid> {
+fn grow(points: &[Point2], seed: usize) -> Option<Grid> {
     let p = points[seed];
     let mut near: Vec<(f64, usize)> =
         points.iter().enumerate().filter(|&(i, _)| i != seed).map(|(i, q)| ((q - p).norm(), i)).collect();
@@ -127,7 +127,7 @@ fn grow(points: &[Point2], seed: usize, used_global: &[bool]) -> Option<Grid> {
         d < 5.0 * du && (u.dot(&v) / (u.norm() * v.norm())).abs() < 0.7
     })?;
     let mut grid: Grid = HashMap::new();
-    let mut used = used_global.to_vec();
+    let mut used = vec![false; points.len()];
     for (cell, i) in [((0, 0), seed), ((1, 0), iu), ((0, 1), iv)] {
         grid.insert(cell, i);
         used[i] = true;
@@ -212,9 +212,8 @@ pub fn find_corners(img: &Gray, cols: usize, rows: usize) -> Result<Vec<Point2>,
             best_partial = best_partial.max(points.len().min(expected));
             continue;
         }
-        let used = vec![false; points.len()];
         for seed in 0..points.len().min(30) {
-            let Some(grid) = grow(&points, seed, &used) else { continue };
+            let Some(grid) = grow(&points, seed) else { continue };
             match board_in(&grid, cols, rows) {
                 Some(cells) => {
                     let corners: Vec<Point2> = cells.iter().map(|&k| points[k]).collect();

@@ -37,13 +37,12 @@ pub fn intrinsics(homographies: &[Matrix3]) -> Result<Matrix3, String> {
     let eig = vtv.symmetric_eigen();
     let mut order: Vec<usize> = (0..6).collect();
     order.sort_by(|&a, &b| eig.eigenvalues[a].total_cmp(&eig.eigenvalues[b]));
-    let (e0, e1, e5) = (eig.eigenvalues[order[0]], eig.eigenvalues[order[1]], eig.eigenvalues[order[5]]);
+    let (e1, e5) = (eig.eigenvalues[order[1]], eig.eigenvalues[order[5]]);
     if e1 <= 1e-9 * e5 {
         return Err(
             "degenerate poses: the boards are (nearly) parallel to each other; tilt the board between views".into()
         );
     }
-    let _ = e0;
     let mut b = eig.eigenvectors.column(order[0]).into_owned();
     if b[0] < 0.0 {
         b = -b;
