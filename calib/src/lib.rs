@@ -13,10 +13,15 @@ pub mod camera_calib;
 pub mod chessboard;
 pub mod gray;
 pub mod homography;
+pub mod laser_plane;
+pub mod least_squares;
+pub mod sweep;
 pub mod turntable_axis;
 pub mod zhang;
 
 pub use camera_calib::{CalibError, CameraCalibration, CameraOptions, View, calibrate_camera};
 pub use chessboard::{NotFound, find_corners};
 pub use gray::Gray;
+pub use laser_plane::{BoardRegion, LaserFit, LaserView, fit_laser_plane};
+pub use sweep::{SweepFit, SweepView, fit_sweep};
 pub use turntable_axis::{AxisFit, fit_axis};

@@ -5,7 +5,9 @@
 
 use crate::camera_calib::CalibError;
 use crate::homography::homography;
+use crate::least_squares;
 use crate::zhang;
+use nalgebra::DVector;
 use rig::math::{Isometry3, Matrix3, Point2, Point3, Real, Vector3};
 use rig::{PinholeCamera, TurntableAxis};
 use serde::Serialize;
@@ -33,15 +35,11 @@ pub fn board_pose(camera: &PinholeCamera, object: &[Point3], corners: &[Point2])
 }
 
 fn refine_pose(camera: &PinholeCamera, object: &[Point3], corners: &[Point2], start: Isometry3) -> Isometry3 {
-    type V6 = nalgebra::SVector<Real, 6>;
-    let apply = |x: &V6| {
-        Isometry3::from_parts(
-            rig::math::Translation3::new(x[3], x[4], x[5]),
-            rig::math::Rotation3::from_scaled_axis(Vector3::new(x[0], x[1], x[2])).into(),
-        )
-    };
-    let residuals = |x: &V6| -> Vec<Real> {
-        let pose = apply(x);
+    let mut x0 = DVector::zeros(6);
+    x0.fixed_rows_mut::<3>(0).copy_from(&start.rotation.scaled_axis());
+    x0.fixed_rows_mut::<3>(3).copy_from(&start.translation.vector);
+    let m = least_squares::minimize(x0, 50, |x| {
+        let pose = pose_from(x.as_slice());
         object
             .iter()
             .zip(corners)
@@ -50,55 +48,16 @@ fn refine_pose(camera: &PinholeCamera, object: &[Point3], corners: &[Point2], st
                 [p.x - c.x, p.y - c.y]
             })
             .collect()
-    };
-    let mut x = V6::zeros();
-    x.fixed_rows_mut::<3>(0).copy_from(&start.rotation.scaled_axis());
-    x.fixed_rows_mut::<3>(3).copy_from(&start.translation.vector);
-    let mut r = residuals(&x);
-    let mut cost: Real = r.iter().map(|v| v * v).sum();
-    let mut mu = 1e-3;
-    for _ in 0..50 {
-        let mut jtj = nalgebra::SMatrix::<Real, 6, 6>::zeros();
-        let mut jtr = V6::zeros();
-        let cols: Vec<Vec<Real>> = (0..6)
-            .map(|k| {
-                let h = 1e-7 * x[k].abs().max(1.0);
-                let mut xp = x;
-                xp[k] += h;
-                residuals(&xp).iter().zip(&r).map(|(a, b)| (a - b) / h).collect()
-            })
-            .collect();
-        for i in 0..r.len() {
-            let row = V6::from_fn(|k, _| cols[k][i]);
-            jtj += row * row.transpose();
-            jtr += row * r[i];
-        }
-        let mut improved = false;
-        for _ in 0..10 {
-            let mut a = jtj;
-            for k in 0..6 {
-                a[(k, k)] += mu * jtj[(k, k)].max(1e-12);
-            }
-            let Some(step) = a.cholesky().map(|c| c.solve(&(-jtr))) else {
-                mu *= 10.0;
-                continue;
-            };
-            let xn = x + step;
-            let rn = residuals(&xn);
-            let cn: Real = rn.iter().map(|v| v * v).sum();
-            if cn < cost {
-                let done = cost - cn < 1e-12 * cost;
-                (x, r, cost, mu) = (xn, rn, cn, mu / 3.0);
-                improved = !done;
-                break;
-            }
-            mu *= 4.0;
-        }
-        if !improved {
-            break;
-        }
-    }
-    apply(&x)
+    });
+    pose_from(m.x.as_slice())
+}
+
+/// A pose from a rotation vector then a translation.
+pub(crate) fn pose_from(x: &[Real]) -> Isometry3 {
+    Isometry3::from_parts(
+        rig::math::Translation3::new(x[3], x[4], x[5]),
+        rig::math::Rotation3::from_scaled_axis(Vector3::new(x[0], x[1], x[2])).into(),
+    )
 }
 
 /// Fits the axis from full-board corners in each view of a sweep. `object` are the board corners

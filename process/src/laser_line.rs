@@ -91,13 +91,25 @@ fn sub_pixel(diff: &[f64], m: usize, p: &LaserParams) -> Real {
 
 /// Finds the stripe in every row of `on` (laser on) against `off` (laser off).
 pub fn detect_line(on: &Image8, off: &Image8, p: &LaserParams) -> (Vec<LinePeak>, LineReport) {
+    detect_line_within(on, off, p, |_, _| true)
+}
+
+/// [`detect_line`] over only the pixels `(column, row)` for which `keep` holds — the printed board
+/// during laser calibration, where the platter and background would otherwise win rows or double
+/// them.
+pub fn detect_line_within(
+    on: &Image8,
+    off: &Image8,
+    p: &LaserParams,
+    keep: impl Fn(usize, usize) -> bool,
+) -> (Vec<LinePeak>, LineReport) {
     let (w, h) = (on.width as usize, on.height as usize);
     let mut peaks = Vec::new();
     let mut report = LineReport::default();
     let mut diff = vec![0.0; w];
     for r in 0..h {
         for (c, d) in diff.iter_mut().enumerate() {
-            *d = (on.data[r * w + c] as Real - off.data[r * w + c] as Real).max(0.0);
+            *d = if keep(c, r) { (on.data[r * w + c] as Real - off.data[r * w + c] as Real).max(0.0) } else { 0.0 };
         }
         let (m, &top) = diff.iter().enumerate().max_by(|a, b| a.1.total_cmp(b.1)).expect("rows are not empty");
         if top < p.min_peak {

@@ -98,8 +98,13 @@ pub fn default_fixed_poses(board: &Board, distance_mm: Real, count: usize) -> Ve
         .collect()
 }
 
-/// The board standing on the platter in the object frame: its bottom margin on z = 0, centred on the
-/// axis, facing the camera (−y of the object frame) at 0°.
+/// How far in front of the turntable axis a standing board's face is (mm). A face through the axis
+/// would meet every laser plane (which contain the axis) in the same line at every angle, and a line
+/// does not determine a plane; real stands hold the board off the axis too.
+pub const STAND_OFFSET_MM: Real = 40.0;
+
+/// The board standing on the platter in the object frame: its bottom margin on z = 0, centred across
+/// the axis and [`STAND_OFFSET_MM`] in front of it, facing the camera (−y of the object frame) at 0°.
 pub fn standing_on_platter(board: &Board) -> Isometry3 {
     let s = board.square_mm;
     let c = board.centre();
@@ -107,7 +112,7 @@ pub fn standing_on_platter(board: &Board) -> Isometry3 {
     // x × y is object +y, away from the camera (the simulator prints both faces).
     let rot = UnitQuaternion::from_basis_unchecked(&[Vector3::x(), -Vector3::z(), Vector3::y()]);
     let height = (board.rows as Real + 1.0) * s; // the bottom margin's lower edge touches the platter
-    Isometry3::from_parts(Translation3::new(-c.x, 0.0, height), rot)
+    Isometry3::from_parts(Translation3::new(-c.x, -STAND_OFFSET_MM, height), rot)
 }
 
 /// Simulates calibration captures of `board` into `out`: one view per pose (fixed poses without the
