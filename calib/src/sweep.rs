@@ -7,7 +7,7 @@
 
 use crate::camera_calib::CalibError;
 use crate::least_squares;
-use crate::turntable_axis::{board_pose, fit_axis, pose_from};
+use crate::turntable_axis::{board_pose, fit_axis, lowest_corner, pose_from};
 use nalgebra::DVector;
 use rig::math::{Isometry3, Point2, Point3, Real, Rotation3, Translation3, UnitVector3, Vector3};
 use rig::{PinholeCamera, TurntableAxis};
@@ -47,15 +47,16 @@ pub struct SweepFit {
 const ANGLE_TOLERANCE_DEG: Real = 3.0;
 
 /// Fits the sweep (see the module notes). `object` are the board corners (board frame, mm);
-/// `platter` is a board-frame point on the platter plane, which fixes the axis point's height.
+/// `corner_height_mm` is how far the lowest inner corners stand above the platter (as for
+/// [`fit_axis`]), which fixes the axis point's height.
 pub fn fit_sweep(
     camera: &PinholeCamera,
     object: &[Point3],
     views: &[SweepView],
-    platter: Point3,
+    corner_height_mm: Real,
 ) -> Result<SweepFit, CalibError> {
     let corners: Vec<Vec<Point2>> = views.iter().map(|v| v.corners.clone()).collect();
-    let start = fit_axis(camera, object, &corners, platter)?;
+    let start = fit_axis(camera, object, &corners, corner_height_mm)?;
     let poses: Vec<Option<Isometry3>> = corners.iter().map(|c| board_pose(camera, object, c)).collect();
     let (first, p0) = poses.iter().enumerate().find_map(|(k, p)| p.map(|p| (k, p))).expect("fit_axis found poses");
     // The recorded angles must turn the board as its poses do, in size and sense.
@@ -105,14 +106,13 @@ pub fn fit_sweep(
     let mut axis = axis_of(m.x.as_slice());
     let mut b = pose_from(&m.x.as_slice()[4..10]);
     // Slide the axis point to the platter plane; the object frame's origin moves with it.
+    let up = axis.direction.into_inner();
     let h = used
         .iter()
-        .map(|&k| {
-            let pose = axis.camera_from_object(views[k].angle_deg) * b;
-            axis.direction.dot(&((pose * platter) - axis.point))
-        })
+        .map(|&k| lowest_corner(&(axis.camera_from_object(views[k].angle_deg) * b), object, &up, &axis.point))
         .sum::<Real>()
-        / used.len() as Real;
+        / used.len() as Real
+        - corner_height_mm;
     axis.point += axis.direction.into_inner() * h;
     b = Translation3::new(0.0, 0.0, -h) * b;
     let n = object.len();

@@ -61,13 +61,14 @@ pub(crate) fn pose_from(x: &[Real]) -> Isometry3 {
 }
 
 /// Fits the axis from full-board corners in each view of a sweep. `object` are the board corners
-/// (board frame, mm); `platter` is a board-frame point on the platter plane (for a board standing
-/// on its bottom margin: `(0, (rows + 1)·square, 0)`).
+/// (board frame, mm); `corner_height_mm` is how far the lowest inner corners stand above the
+/// platter (Horus and FabScan call it the pattern's origin distance), which places the axis point
+/// on the platter.
 pub fn fit_axis(
     camera: &PinholeCamera,
     object: &[Point3],
     views: &[Vec<Point2>],
-    platter: Point3,
+    corner_height_mm: Real,
 ) -> Result<AxisFit, CalibError> {
     let poses: Vec<Isometry3> = views.iter().filter_map(|c| board_pose(camera, object, c)).collect();
     if poses.len() < 3 {
@@ -120,13 +121,18 @@ pub fn fit_axis(
     let wsum: Real = centres.iter().map(|c| c.1).sum();
     let m = centres.iter().fold(Vector3::zeros(), |acc, (c, r)| acc + c * *r) / wsum;
     // The platter plane's height along the axis, averaged over the views.
-    let t = poses.iter().map(|p| a.dot(&((p * platter).coords - m))).sum::<Real>() / poses.len() as Real;
-    let point = Point3::from(m + a * t);
+    let t = poses.iter().map(|p| lowest_corner(p, object, &a, &Point3::from(m))).sum::<Real>() / poses.len() as Real;
+    let point = Point3::from(m + a * (t - corner_height_mm));
     Ok(AxisFit {
         axis: TurntableAxis { point, direction: rig::math::UnitVector3::new_normalize(a) },
         circle_rms_mm: (sq / n.max(1) as Real).sqrt(),
         views: poses.len(),
     })
+}
+
+/// How high the lowest corner of `object` at `pose` stands along `up` above `origin`.
+pub(crate) fn lowest_corner(pose: &Isometry3, object: &[Point3], up: &Vector3, origin: &Point3) -> Real {
+    object.iter().map(|o| up.dot(&(pose * o - origin))).fold(Real::INFINITY, Real::min)
 }
 
 /// The least-squares circle (Kåsa) through 2-D points: centre and radius.

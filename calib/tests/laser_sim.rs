@@ -31,7 +31,9 @@ fn laser_lines_on_a_swept_board_give_the_laser_planes() {
     // Board poses from the whole sweep adjusted as one turn (per-view poses tilt the planes).
     let sweep: Vec<SweepView> =
         found.iter().map(|(v, _, c)| SweepView { angle_deg: v.angle_deg, corners: c.clone() }).collect();
-    let platter = Point3::new(0.0, (board.rows as Real + 1.0) * board.square_mm, 0.0);
+    // The lowest inner corners stand two squares above the platter (a square to the margin's edge, a
+    // square of margin).
+    let platter = 2.0 * board.square_mm;
     let fit = fit_sweep(&camera, &object, &sweep, platter).unwrap();
     eprintln!("sweep: RMS {:.3} px, {} iterations", fit.rms_px, fit.iterations);
     let mut views = vec![Vec::new(); cfg.rig.lasers.len()];

@@ -27,7 +27,9 @@ fn a_board_swept_on_the_platter_gives_the_turntable_axis() {
         }
     }
     let object: Vec<Point3> = board.corners();
-    let platter = Point3::new(0.0, (board.rows as Real + 1.0) * board.square_mm, 0.0);
+    // The lowest inner corners stand two squares above the platter (a square to the margin's edge, a
+    // square of margin).
+    let platter = 2.0 * board.square_mm;
     let fit = fit_axis(&cfg.rig.camera, &object, &views, platter).unwrap();
     let angle = fit.axis.direction.angle(&truth.direction).to_degrees();
     let off = (fit.axis.point - truth.point).norm();
