@@ -15,6 +15,7 @@ pub mod gray;
 pub mod homography;
 pub mod laser_plane;
 pub mod least_squares;
+pub mod projector;
 pub mod sweep;
 pub mod turntable_axis;
 pub mod zhang;
@@ -23,5 +24,6 @@ pub use camera_calib::{CalibError, CameraCalibration, CameraOptions, View, calib
 pub use chessboard::{NotFound, find_corners};
 pub use gray::Gray;
 pub use laser_plane::{BoardRegion, LaserFit, LaserView, fit_laser_plane};
+pub use projector::{Decoded, ProjectorCalibration, StereoView, calibrate_projector, projector_corners};
 pub use sweep::{SweepFit, SweepView, fit_sweep};
 pub use turntable_axis::{AxisFit, fit_axis};

@@ -1,13 +1,19 @@
-//! Issue 5, acceptance 1 (the camera): chessboard captures of the simulated rig — its default sensor
-//! noise, 15 board poses — through corner detection and calibration, against the simulator's truth.
+//! Issue 5, acceptance 1 (camera and projector): chessboard captures of the simulated
+//! structured-light rig — its default sensor noise, 15 board poses, each under the full Gray-code and
+//! phase-shift program — through corner detection, the camera's calibration, the projector's by
+//! local homographies and the joint stereo refinement, against the simulator's truth.
 
-use calib::{CameraOptions, Gray, View, calibrate_camera, find_corners};
+use calib::{
+    CameraOptions, Decoded, Gray, StereoView, View, calibrate_camera, calibrate_projector, find_corners,
+    projector_corners,
+};
+use process::structured_light::{DecodeParams, decode_view};
 use rig::math::{Point2, Point3};
 use rig::npy::NpyData;
 use rig::{Manifest, Pattern};
 
 #[test]
-fn simulated_board_views_calibrate_the_camera() {
+fn simulated_board_views_calibrate_camera_and_projector() {
     let cfg = sim::SimConfig::from_toml_str(include_str!("../../configs/sim-structured-light.toml")).unwrap();
     // 11 mm squares: the default poses drift the board toward the image's edges, and with 15 mm
     // squares half of them leave corners outside the frame.
@@ -21,7 +27,7 @@ fn simulated_board_views_calibrate_the_camera() {
 
     let manifest = Manifest::read(&dir).unwrap();
     let object: Vec<Point3> = board.corners();
-    let (mut views, mut errors, mut missing) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut views, mut errors, mut missing, mut found) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for (v, view) in manifest.views.iter().enumerate() {
         let lit = view.frames.iter().find(|f| f.pattern == Pattern::White).expect("a lit frame");
         let img = Gray::from_image(&rig::image::read_png(&dir.join(&lit.file)).unwrap());
@@ -41,7 +47,8 @@ fn simulated_board_views_calibrate_the_camera() {
             }
         };
         errors.extend(corners.iter().zip(&truth).map(|(a, b)| (a - b).norm()));
-        views.push(View { object: object.clone(), image: corners });
+        views.push(View { object: object.clone(), image: corners.clone() });
+        found.push((v, corners));
     }
     errors.sort_by(|a, b| a.total_cmp(b));
     let mean = errors.iter().sum::<f64>() / errors.len() as f64;
@@ -69,5 +76,56 @@ fn simulated_board_views_calibrate_the_camera() {
     assert!((c.camera.cx - truth.cx).abs() <= 2.0, "cx {}", c.camera.cx);
     assert!((c.camera.cy - truth.cy).abs() <= 2.0, "cy {}", c.camera.cy);
     assert!(c.rms <= 0.15, "rms {}", c.rms);
+
+    // The projector: each view's frames decoded, corners carried over by local homographies.
+    let proj = cfg.rig.projector.expect("the structured-light rig has a projector");
+    let stereo: Vec<StereoView> = found
+        .iter()
+        .map(|(v, corners)| {
+            let images: Vec<(Pattern, rig::image::Image8)> = manifest.views[*v]
+                .frames
+                .iter()
+                .map(|f| (f.pattern, rig::image::read_png(&dir.join(&f.file)).unwrap()))
+                .collect();
+            let frames: Vec<(Pattern, &rig::image::Image8)> = images.iter().map(|(p, i)| (*p, i)).collect();
+            let (map, _) = decode_view(&frames, proj.lens.width, proj.lens.height, &DecodeParams::default()).unwrap();
+            let decoded = Decoded { width: map.width, height: map.height, u: &map.u, v: &map.v };
+            StereoView {
+                object: object.clone(),
+                camera: corners.clone(),
+                projector: projector_corners(corners, &decoded, 20),
+            }
+        })
+        .collect();
+    let p =
+        calibrate_projector(&c.camera, &stereo, proj.lens.width, proj.lens.height, CameraOptions::default()).unwrap();
+    let rot = p.from_camera.rotation.angle_to(&proj.from_camera.rotation).to_degrees();
+    let t_true = proj.from_camera.translation.vector;
+    let t_err = (p.from_camera.translation.vector - t_true).norm() / t_true.norm();
+    eprintln!(
+        "projector: {} views, {} corners ({} skipped); fx {:.2} ({:.2}), fy {:.2} ({:.2}), cx {:.2} ({:.2}), \
+         cy {:.2} ({:.2}); rotation {rot:.4}° off, translation {:.3} % off; RMS projector {:.3}, stereo {:.3} \
+         (camera {:.3}, projector {:.3}) px",
+        p.views,
+        p.corners_used,
+        p.corners_skipped,
+        p.lens.fx,
+        proj.lens.fx,
+        p.lens.fy,
+        proj.lens.fy,
+        p.lens.cx,
+        proj.lens.cx,
+        p.lens.cy,
+        proj.lens.cy,
+        100.0 * t_err,
+        p.projector_rms,
+        p.stereo_rms,
+        p.stereo_camera_rms,
+        p.stereo_projector_rms
+    );
+    assert!((p.lens.fx / proj.lens.fx - 1.0).abs() <= 5e-3, "projector fx {}", p.lens.fx);
+    assert!((p.lens.fy / proj.lens.fy - 1.0).abs() <= 5e-3, "projector fy {}", p.lens.fy);
+    assert!(rot <= 0.1, "extrinsic rotation {rot}° off");
+    assert!(t_err <= 5e-3, "extrinsic translation {} % off", 100.0 * t_err);
     std::fs::remove_dir_all(&dir).unwrap();
 }
