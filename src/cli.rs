@@ -39,7 +39,7 @@ pub enum Command {
     Reconstruct(ReconstructArgs),
     /// Remesh a triangle mesh into quads along the streamlines of a designed harmonic field (thesis ch. 6).
     Remesh(RemeshArgs),
-    /// Calibrate a rig from chessboard captures (camera intrinsics so far) into a rig file.
+    /// Calibrate a rig (camera, projector, lasers, turntable) from chessboard captures into a rig file.
     Calibrate(CalibrateArgs),
     /// Decode a folder of structured-light images made by other tools into a projector correspondence map.
     Decode(DecodeArgs),
@@ -110,10 +110,11 @@ pub struct SimArgs {
     /// The chessboard's square size, mm.
     #[arg(long, default_value_t = 15.0)]
     pub square: f64,
-    /// Board poses in front of the camera (with --board).
-    #[arg(long, default_value_t = 15)]
-    pub poses: usize,
-    /// Stand the board on the turntable and sweep it START:END:STEP degrees instead (with --board).
+    /// Board poses held in front of the camera (with --board; default 15, none with --sweep alone).
+    #[arg(long)]
+    pub poses: Option<usize>,
+    /// Stand the board on the turntable and sweep it START:END:STEP degrees (with --board; after
+    /// the held poses when --poses is given too).
     #[arg(long, value_parser = parse_sweep, allow_hyphen_values = true)]
     pub sweep: Option<Sweep>,
     /// A noiseless sensor (no shot or read noise), for reference captures.
@@ -370,8 +371,9 @@ pub struct CalibrateArgs {
     /// What to calibrate.
     #[arg(value_enum)]
     pub target: CalibrateTarget,
-    /// A capture folder (`scanrig sim --board` writes one; its lit frames are used) or a folder of PNG
-    /// or JPEG images.
+    /// A capture folder (`scanrig sim --board` writes one), a folder of PNG or JPEG images, or a
+    /// `'dir/*.png'` pattern; for `import`, an OpenCV YAML camera file. In an image folder a frame
+    /// much darker than the lit frame before it is that position's laser frame (laser 0, then 1).
     pub captures: PathBuf,
     /// The rig file to write; an existing one keeps everything but what is calibrated.
     #[arg(long, short)]
@@ -403,7 +405,18 @@ pub struct CalibrateArgs {
     /// Also export the camera in OpenCV's YAML layout.
     #[arg(long)]
     pub yaml: Option<PathBuf>,
-    /// Print the report as JSON.
+    /// The rig whose camera the projector, laser or turntable steps use when the camera is not
+    /// calibrated too (default: the output rig, else the capture folder's).
+    #[arg(long)]
+    pub rig: Option<PathBuf>,
+    /// How high the board's lowest inner corners stand above the platter, mm (Horus' and FabScan's
+    /// "origin distance"; default two squares, the simulator's stand).
+    #[arg(long)]
+    pub corner_height: Option<f64>,
+    /// The projector's resolution, WIDTHxHEIGHT (default: the rig's projector).
+    #[arg(long, value_parser = parse_size)]
+    pub projector: Option<(u32, u32)>,
+    /// Print the report as JSON (it is also written beside the rig, as NAME.report.json).
     #[arg(long)]
     pub json: bool,
 }
@@ -412,6 +425,16 @@ pub struct CalibrateArgs {
 pub enum CalibrateTarget {
     /// Camera intrinsics and distortion from views of a chessboard.
     Camera,
+    /// The projector's lens and pose from the board under the structured-light program.
+    Projector,
+    /// Laser planes from the laser frames of the board's positions.
+    Laser,
+    /// The turntable axis from the board standing on the platter, turned.
+    Turntable,
+    /// Every step the captures allow, the camera first.
+    All,
+    /// A camera from an OpenCV YAML file (camera_matrix, distortion_coefficients) into the rig.
+    Import,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

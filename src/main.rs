@@ -1,7 +1,7 @@
 //! `scanrig`: the command line. Arguments are parsed here ([`cli`]), turned into calls of the library
 //! crates, and results printed; no algorithm lives in the binary.
 
-mod calibrate_cmd;
+mod calibrate;
 mod cli;
 mod convert;
 mod decode_cmd;
@@ -32,7 +32,7 @@ fn main() -> ExitCode {
         cli::Command::Register(a) => register_cmd::run(&a),
         cli::Command::Remesh(a) => remesh_cmd::run(&a),
         cli::Command::Demo(a) => demo::run(&a),
-        cli::Command::Calibrate(a) => calibrate_cmd::run(&a),
+        cli::Command::Calibrate(a) => calibrate::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -100,12 +100,16 @@ fn run_board(args: &SimArgs, cfg: &SimConfig, board: sim::Board) -> Result<()> {
     if board.cols < 2 || board.rows < 2 || args.square.is_nan() || args.square <= 0.0 {
         bail!("--board needs at least 2x2 inner corners and a positive --square");
     }
-    let poses = match &args.sweep {
-        Some(sweep) => sim::BoardPoses::Turntable(sweep.0.clone()),
-        None => {
-            let distance = cfg.rig.turntable.map(|t| t.point.coords.norm()).unwrap_or(400.0);
-            sim::BoardPoses::Fixed(sim::board::default_fixed_poses(&board, distance, args.poses.max(1)))
-        }
+    // Held poses unless only a sweep was asked for; both when both were.
+    let held = match (args.poses, &args.sweep) {
+        (Some(n), _) => n,
+        (None, Some(_)) => 0,
+        (None, None) => 15,
+    };
+    let distance = cfg.rig.turntable.map(|t| t.point.coords.norm()).unwrap_or(400.0);
+    let poses = sim::BoardPoses {
+        held: sim::board::default_fixed_poses(&board, distance, held),
+        sweep: args.sweep.as_ref().map(|s| s.0.clone()).unwrap_or_default(),
     };
     let opts = sim::ScanOptions { method: Method::Board, seed: args.seed, truth: !args.no_truth };
     eprintln!(

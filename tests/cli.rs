@@ -574,16 +574,143 @@ fn calibrate_camera_recovers_the_simulated_camera_and_names_bad_folders() {
     let cam = rig::Rig::read(&out).unwrap().camera;
     assert!((cam.fx / truth.fx - 1.0).abs() < 0.005, "fx {} vs {}: {report}", cam.fx, truth.fx);
     assert!((cam.fy / truth.fy - 1.0).abs() < 0.005, "fy {} vs {}", cam.fy, truth.fy);
-    assert!(report["rms_px"].as_f64().unwrap() < 0.3, "{report}");
+    assert!(report["camera"]["rms_px"].as_f64().unwrap() < 0.3, "{report}");
     assert_eq!(rig::opencv_yaml::read_camera(&yaml).unwrap(), cam);
     // A folder with one image, and one with images of two sizes: each named.
     let one = d.path("one");
     std::fs::create_dir_all(&one).unwrap();
-    std::fs::copy(caps.join("frames/view_000/00_white.png"), one.join("a.png")).unwrap();
+    // View 4 has the whole board in frame (views 0, 1 and 8 of the default poses do not).
+    std::fs::copy(caps.join("frames/view_004/00_white.png"), one.join("a.png")).unwrap();
     let o = scanrig(&[&"calibrate", &"camera", &one, &"-o", &d.path("x.toml"), &"--square", &"11"]);
     assert!(!o.status.success() && stderr(&o).contains("at least 3"), "{}", stderr(&o));
     let small = rig::image::Image8::gray(32, 32, vec![0; 32 * 32]);
     rig::image::write_png(&one.join("b.png"), &small, true).unwrap();
     let o = scanrig(&[&"calibrate", &"camera", &one, &"-o", &d.path("x.toml")]);
     assert!(!o.status.success() && stderr(&o).contains("b.png") && stderr(&o).contains("a.png"), "{}", stderr(&o));
+}
+
+#[test]
+fn calibrate_all_on_a_laser_rig_gives_its_planes_and_axis_and_names_what_is_missing() {
+    let d = Dir::new();
+    let caps = d.path("caps");
+    let o = scanrig(&[
+        &"sim",
+        &"--config",
+        &"laser",
+        &"--resolution",
+        &"640x480",
+        &"--board",
+        &"9x6",
+        &"--square",
+        &"11",
+        &"--poses",
+        &"6",
+        &"--sweep=-40:40:10",
+        &"--out",
+        &caps,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let truth = rig::Rig::read(&caps.join("rig.toml")).unwrap();
+    let out = d.path("rig.toml");
+    let o = scanrig(&[&"calibrate", &"all", &caps, &"-o", &out, &"--board", &"9x6", &"--square", &"11", &"--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert_eq!(
+        report,
+        serde_json::from_slice::<serde_json::Value>(&std::fs::read(d.path("rig.report.json")).unwrap()).unwrap()
+    );
+    let got = rig::Rig::read(&out).unwrap();
+    // Quarter-resolution frames and 15 views: loose bounds; the library tests hold the tight ones.
+    for (l, t) in got.lasers.iter().zip(&truth.lasers) {
+        let angle = l.plane.normal.into_inner().cross(&t.plane.normal).norm().asin().to_degrees();
+        let s = l.plane.normal.dot(&t.plane.normal).signum();
+        assert!(
+            angle < 0.5 && (l.plane.distance * s - t.plane.distance).abs() < 1.0,
+            "{}: {:?} vs {:?}",
+            l.name,
+            l.plane,
+            t.plane
+        );
+    }
+    let (a, t) = (got.turntable.unwrap(), truth.turntable.unwrap());
+    assert!(a.direction.angle(&t.direction).to_degrees() < 0.5 && (a.point - t.point).norm() < 3.0, "{a:?} vs {t:?}");
+    assert!(
+        report["camera"]["rms_px"].as_f64().unwrap() < 0.5 && report["lasers"].as_array().unwrap().len() == 2,
+        "{report}"
+    );
+
+    // The laser step with the lasers never on: named, not a garbage plane.
+    let manifest = rig::Manifest::read(&caps).unwrap();
+    for v in &manifest.views {
+        let off = v.frames.iter().find(|f| f.pattern == rig::Pattern::LaserOff).unwrap();
+        for f in v.frames.iter().filter(|f| matches!(f.pattern, rig::Pattern::Laser { .. })) {
+            std::fs::copy(caps.join(&off.file), caps.join(&f.file)).unwrap();
+        }
+    }
+    let o = scanrig(&[&"calibrate", &"laser", &caps, &"-o", &out, &"--board", &"9x6", &"--square", &"11"]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("laser 0") && e.contains("0 view(s)") && e.contains("view_"), "{e}");
+
+    // No board at all, and boards all parallel (one image three times).
+    let dark = d.path("dark");
+    std::fs::create_dir_all(&dark).unwrap();
+    let black = rig::image::Image8::gray(64, 48, vec![30; 64 * 48]);
+    for n in ["a.png", "b.png", "c.png"] {
+        rig::image::write_png(&dark.join(n), &black, true).unwrap();
+    }
+    let o = scanrig(&[&"calibrate", &"camera", &dark, &"-o", &d.path("x.toml")]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("no 9x6 board found") && e.contains("a.png"), "{e}");
+    let same = d.path("same");
+    std::fs::create_dir_all(&same).unwrap();
+    let lit = &manifest.views[0].frames.iter().find(|f| f.pattern == rig::Pattern::White).unwrap().file;
+    for n in ["a.png", "b.png", "c.png", "d.png"] {
+        std::fs::copy(caps.join(lit), same.join(n)).unwrap();
+    }
+    let o = scanrig(&[&"calibrate", &"camera", &same, &"-o", &d.path("x.toml"), &"--square", &"11"]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("parallel") && e.contains("a.png"), "{e}");
+}
+
+#[test]
+fn calibrate_all_on_a_structured_light_rig_and_the_yaml_import() {
+    let d = Dir::new();
+    let caps = d.path("caps");
+    let o = scanrig(&[
+        &"sim",
+        &"--resolution",
+        &"640x512",
+        &"--board",
+        &"9x6",
+        &"--square",
+        &"11",
+        &"--poses",
+        &"10",
+        &"--sweep=-30:30:15",
+        &"--out",
+        &caps,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let truth = rig::Rig::read(&caps.join("rig.toml")).unwrap();
+    let out = d.path("rig.toml");
+    let yaml = d.path("camera.yml");
+    let o = scanrig(&[&"calibrate", &"all", &caps, &"-o", &out, &"--square", &"11", &"--yaml", &yaml]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = stdout(&o);
+    assert!(text.contains("projector 1024x768") && text.contains("turntable: platter centre"), "{text}");
+    let got = rig::Rig::read(&out).unwrap();
+    let (p, t) = (got.projector.unwrap(), truth.projector.unwrap());
+    assert!((p.lens.fx / t.lens.fx - 1.0).abs() < 0.01, "projector fx {} vs {}", p.lens.fx, t.lens.fx);
+    let baseline = (p.from_camera.translation.vector - t.from_camera.translation.vector).norm();
+    assert!(baseline < 0.01 * t.from_camera.translation.vector.norm(), "translation off by {baseline} mm");
+    assert!(p.from_camera.rotation.angle_to(&t.from_camera.rotation).to_degrees() < 0.3);
+    assert!(got.turntable.is_some());
+
+    // The YAML export goes back in as the same camera.
+    let back = d.path("back.toml");
+    let o = scanrig(&[&"calibrate", &"import", &yaml, &"-o", &back]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(rig::Rig::read(&back).unwrap().camera, got.camera);
+    let o = scanrig(&[&"calibrate", &"import", &out, &"-o", &back]);
+    assert!(!o.status.success() && stderr(&o).contains("rig.toml"), "{}", stderr(&o));
 }

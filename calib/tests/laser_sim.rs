@@ -15,7 +15,7 @@ fn laser_lines_on_a_swept_board_give_the_laser_planes() {
     let dir = std::env::temp_dir().join(format!("calib-laser-sim-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let opts = sim::ScanOptions { method: rig::Method::Board, seed: 5, truth: false };
-    sim::simulate_board(&cfg, &board, &sim::BoardPoses::Turntable(angles.clone()), opts, &dir, |_, _| {}).unwrap();
+    sim::simulate_board(&cfg, &board, &sim::BoardPoses::sweep(angles.clone()), opts, &dir, |_, _| {}).unwrap();
     let manifest = Manifest::read(&dir).unwrap();
     let object: Vec<Point3> = board.corners();
     let camera = cfg.rig.camera;

@@ -23,7 +23,7 @@ fn simulated_board_views_calibrate_camera_and_projector() {
     let dir = std::env::temp_dir().join(format!("calib-camera-sim-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let opts = sim::ScanOptions { method: rig::Method::Board, seed: 7, truth: true };
-    sim::simulate_board(&cfg, &board, &sim::BoardPoses::Fixed(poses), opts, &dir, |_, _| {}).unwrap();
+    sim::simulate_board(&cfg, &board, &sim::BoardPoses::held(poses), opts, &dir, |_, _| {}).unwrap();
 
     let manifest = Manifest::read(&dir).unwrap();
     let object: Vec<Point3> = board.corners();

@@ -14,7 +14,7 @@ fn a_board_swept_on_the_platter_gives_the_turntable_axis() {
     let dir = std::env::temp_dir().join(format!("calib-axis-sim-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let opts = sim::ScanOptions { method: rig::Method::Board, seed: 3, truth: false };
-    sim::simulate_board(&cfg, &board, &sim::BoardPoses::Turntable(angles.clone()), opts, &dir, |_, _| {}).unwrap();
+    sim::simulate_board(&cfg, &board, &sim::BoardPoses::sweep(angles.clone()), opts, &dir, |_, _| {}).unwrap();
     let manifest = Manifest::read(&dir).unwrap();
     let mut views = Vec::new();
     let mut sweep = Vec::new();

@@ -59,6 +59,10 @@ pub struct View {
     pub frames: Vec<Frame>,
     /// True once every frame is written.
     pub complete: bool,
+    /// Calibration captures: the board was held in front of the camera, off the turntable, so the
+    /// angle says nothing about its pose (absent, false, for turntable views).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub held: bool,
 }
 
 /// The scan manifest (see the module doc for the file).

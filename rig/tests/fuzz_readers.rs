@@ -104,6 +104,7 @@ cy_px = 240.0\ndistortion = [0.1, 0.0, 0.0, 0.0, 0.0]\n[[lasers]]\nname = \"l\"\
                 .map(|pattern| rig::scan_folder::Frame { file: format!("f/{}.png", pattern.name()), pattern })
                 .collect(),
             complete: true,
+            held: false,
         }],
     };
     out.push(serde_json::to_vec_pretty(&manifest).unwrap());

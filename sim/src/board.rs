@@ -71,13 +71,26 @@ impl Board {
     }
 }
 
-/// Where the board is in each view.
-#[derive(Debug, Clone, PartialEq)]
-pub enum BoardPoses {
-    /// Fixed poses in the camera frame (camera_from_board), one view each.
-    Fixed(Vec<Isometry3>),
-    /// Standing on the platter, facing the camera at 0°, swept through these turntable angles.
-    Turntable(Vec<Real>),
+/// Where the board is in each view: first held up at fixed poses, then standing on the platter and
+/// swept through angles (either list may be empty).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct BoardPoses {
+    /// Fixed poses in the camera frame (camera_from_board), one view each, away from the turntable.
+    pub held: Vec<Isometry3>,
+    /// Turntable angles (degrees) of the board standing on the platter, facing the camera at 0°.
+    pub sweep: Vec<Real>,
+}
+
+impl BoardPoses {
+    /// Only held poses.
+    pub fn held(poses: Vec<Isometry3>) -> Self {
+        BoardPoses { held: poses, sweep: Vec::new() }
+    }
+
+    /// Only a sweep on the turntable.
+    pub fn sweep(angles_deg: Vec<Real>) -> Self {
+        BoardPoses { held: Vec::new(), sweep: angles_deg }
+    }
 }
 
 /// A spread of board poses for camera calibration: the board centred `distance_mm` ahead, tilted up to
@@ -130,16 +143,17 @@ pub fn simulate_board(
 ) -> Result<ScanReport, Error> {
     let start = Instant::now();
     let patterns = program(cfg, Method::Board)?;
-    let (angles, fixed): (Vec<Real>, Vec<Option<Isometry3>>) = match poses {
-        BoardPoses::Fixed(p) => (vec![0.0; p.len()], p.iter().map(|&q| Some(q)).collect()),
-        BoardPoses::Turntable(a) => (a.clone(), vec![None; a.len()]),
-    };
+    let (angles, fixed): (Vec<Real>, Vec<Option<Isometry3>>) =
+        poses.held.iter().map(|&q| (0.0, Some(q))).chain(poses.sweep.iter().map(|&a| (a, None))).unzip();
     if angles.is_empty() {
         return Err(Error::Setup("no board poses given".into()));
     }
     std::fs::create_dir_all(out).map_err(|e| Error::File(rig::Error::io(out, e)))?;
     crate::scan::scan_rig(cfg).write(&out.join("rig.toml"))?;
     let mut manifest: Manifest = fresh_manifest(Method::Board, opts.seed, &angles, &patterns);
+    for (view, f) in manifest.views.iter_mut().zip(&fixed) {
+        view.held = f.is_some();
+    }
     manifest.write(out)?;
     let lights = lights_for(cfg, &patterns);
     let rays = pixel_rays(&cfg.rig.camera);

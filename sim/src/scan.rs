@@ -174,6 +174,7 @@ pub(crate) fn fresh_manifest(method: Method, seed: u64, angles: &[Real], pattern
                     .map(|(f, p)| Frame { file: format!("frames/view_{v:03}/{f:02}_{}.png", p.name()), pattern: *p })
                     .collect(),
                 complete: false,
+                held: false,
             })
             .collect(),
     }

@@ -327,7 +327,7 @@ fn board_truth_corners_sit_where_the_lit_frame_changes_colour() {
     let poses = sim::board::default_fixed_poses(&board, 320.0, 5);
     let out = tmp("board");
     let opts = ScanOptions { method: Method::Board, seed: 4, truth: true };
-    sim::simulate_board(&cfg, &board, &sim::BoardPoses::Fixed(poses), opts, &out, |_, _| {}).unwrap();
+    sim::simulate_board(&cfg, &board, &sim::BoardPoses::held(poses), opts, &out, |_, _| {}).unwrap();
     let m = Manifest::read(&out).unwrap();
     let mut checked = 0;
     for v in 0..m.views.len() {
