@@ -54,7 +54,10 @@ pub fn view_geometry(scene: &Scene, cfg: &SimConfig, rays: &[Vector3], camera_fr
     let (w, h) = (cam.width as usize, cam.height as usize);
     let posed = scene.view(camera_from_object);
     let nl = cfg.rig.lasers.len();
-    let per_pixel: Vec<Pixel> = rays.par_iter().map(|dir| shade_geometry(&posed, cfg, dir)).collect();
+    let mut per_pixel: Vec<Pixel> = rays.par_iter().map(|dir| shade_geometry(&posed, cfg, dir)).collect();
+    if scene.parts.iter().any(|p| p.albedo.has_edges()) {
+        box_filter_albedo(scene, &mut per_pixel, w, h);
+    }
     let mut g = ViewGeometry {
         width: w,
         height: h,
@@ -82,7 +85,46 @@ pub fn view_geometry(scene: &Scene, cfg: &SimConfig, rays: &[Vector3], camera_fr
     g
 }
 
+/// Replaces point-sampled albedo with its mean over each pixel's footprint on parts whose albedo has
+/// edges (the chessboard): the footprint is the box spanned by the surface coordinates of the
+/// pixel's neighbours on the same part (half a pixel either way).
+fn box_filter_albedo(scene: &Scene, px: &mut [Pixel], w: usize, h: usize) {
+    let filtered: Vec<(usize, f32)> = (0..w * h)
+        .into_par_iter()
+        .filter_map(|i| {
+            let part = px[i].part?;
+            let albedo = &scene.parts[part].albedo;
+            if !albedo.has_edges() {
+                return None;
+            }
+            let (r, c) = (i / w, i % w);
+            let uv = px[i].uv;
+            // Surface coordinates per pixel step along a row and down a column, from whichever
+            // neighbours are on the same part.
+            let step = |a: Option<usize>, b: Option<usize>| -> Option<(Real, Real)> {
+                let on = |k: Option<usize>| k.and_then(|k| (px[k].part == Some(part)).then_some(px[k].uv));
+                match (on(a), on(b)) {
+                    (Some(p), Some(q)) => Some(((q.1 - p.1) / 2.0, (q.2 - p.2) / 2.0)),
+                    (Some(p), None) => Some((uv.1 - p.1, uv.2 - p.2)),
+                    (None, Some(q)) => Some((q.1 - uv.1, q.2 - uv.2)),
+                    (None, None) => None,
+                }
+            };
+            let du = step((c > 0).then(|| i - 1), (c + 1 < w).then(|| i + 1))?;
+            let dv = step((r > 0).then(|| i - w), (r + 1 < h).then(|| i + w))?;
+            let half_u = 0.5 * (du.0.abs() + dv.0.abs());
+            let half_v = 0.5 * (du.1.abs() + dv.1.abs());
+            Some((i, albedo.box_filtered(uv, half_u, half_v) as f32))
+        })
+        .collect();
+    for (i, a) in filtered {
+        px[i].albedo = a;
+    }
+}
+
 struct Pixel {
+    part: Option<usize>,
+    uv: (u32, Real, Real),
     kind: u8,
     point: Point3,
     normal: Vector3,
@@ -106,6 +148,8 @@ fn shade_geometry(scene: &PosedScene<'_>, cfg: &SimConfig, dir: &Vector3) -> Pix
     let nl = cfg.rig.lasers.len();
     let nan = Real::NAN;
     let mut px = Pixel {
+        part: None,
+        uv: (0, nan, nan),
         kind: 0,
         point: Point3::new(nan, nan, nan),
         normal: Vector3::zeros(),
@@ -121,6 +165,8 @@ fn shade_geometry(scene: &PosedScene<'_>, cfg: &SimConfig, dir: &Vector3) -> Pix
     let Some(hit) = scene.cast(&Point3::origin(), dir, 0.0, Real::INFINITY) else { return px };
     let p = Point3::from(dir * hit.t);
     px.kind = hit.kind as u8;
+    px.part = Some(hit.part);
+    px.uv = hit.uv;
     px.point = p;
     px.normal = hit.normal;
     px.albedo = hit.albedo as f32;

@@ -61,7 +61,46 @@ pub enum Albedo {
     },
 }
 
+/// ∫₀ˣ of the square wave that is 1 on the cells `[2k, 2k + 1)` (the even ones) and 0 between.
+fn even_cells_integral(x: Real) -> Real {
+    let k = (x / 2.0).floor();
+    k + (x - 2.0 * k).min(1.0)
+}
+
+/// The share of `[a, b]` lying in even cells and in odd cells, both counted only within `[lo, hi]`.
+fn cell_shares(a: Real, b: Real, lo: Real, hi: Real) -> (Real, Real) {
+    let (ca, cb) = (a.clamp(lo, hi), b.clamp(lo, hi));
+    let even = even_cells_integral(cb) - even_cells_integral(ca);
+    let odd = (cb - ca) - even;
+    (even / (b - a), odd / (b - a))
+}
+
 impl Albedo {
+    /// Whether [`Albedo::box_filtered`] differs from [`Albedo::at`] (edges a pixel can straddle).
+    pub fn has_edges(&self) -> bool {
+        matches!(self, Albedo::Checker { .. })
+    }
+
+    /// The mean albedo over the box `uv ± (half_u, half_v)` in the surface's coordinates: what a pixel
+    /// whose footprint is that box integrates. A point-sampled checker steps by a whole square's contrast
+    /// within a pixel, which is aliasing no lens and sensor produce, and it biased corner positions
+    /// by a tenth of a pixel; the box filter of a checker is exact and cheap (it is separable).
+    pub fn box_filtered(&self, uv: (u32, Real, Real), half_u: Real, half_v: Real) -> Real {
+        match self {
+            Albedo::Checker { square_mm, cols, rows, origin, dark, light } if half_u > 0.0 && half_v > 0.0 => {
+                // Square units, shifted so square (i, j) spans [i, i + 1) × [j, j + 1), i, j from 0.
+                let (x, y) = ((uv.1 - origin.0) / square_mm + 1.0, (uv.2 - origin.1) / square_mm + 1.0);
+                let (hx, hy) = (half_u / square_mm, half_v / square_mm);
+                let (ex, ox) = cell_shares(x - hx, x + hx, 0.0, *cols as Real + 1.0);
+                let (ey, oy) = cell_shares(y - hy, y + hy, 0.0, *rows as Real + 1.0);
+                // Dark where i + j is even: both even or both odd.
+                let dark_share = ex * ey + ox * oy;
+                light + (dark - light) * dark_share
+            }
+            _ => self.at(uv),
+        }
+    }
+
     fn at(&self, uv: (u32, Real, Real)) -> Real {
         match self {
             Albedo::Constant(a) => *a,
@@ -113,6 +152,10 @@ pub struct SceneHit {
     pub albedo: Real,
     /// Which part.
     pub kind: PartKind,
+    /// Its index in the scene's parts.
+    pub part: usize,
+    /// Where on the part's surface (the surface's own coordinates).
+    pub uv: (u32, Real, Real),
 }
 
 /// The scene for one view: every part's pose in that view's camera frame.
@@ -150,7 +193,7 @@ impl PosedScene<'_> {
         let (i, h) = best?;
         let part = &self.scene.parts[i];
         let normal = if h.normal.dot(dir) > 0.0 { -h.normal } else { h.normal };
-        Some(SceneHit { t: h.t, normal, albedo: part.albedo.at(h.uv), kind: part.kind })
+        Some(SceneHit { t: h.t, normal, albedo: part.albedo.at(h.uv), kind: part.kind, part: i, uv: h.uv })
     }
 
     /// Whether a camera-frame ray hits anything with `t ∈ (t_min, t_max)` (shadow rays).
@@ -183,5 +226,28 @@ impl Scene {
             albedo,
         });
         Scene { parts }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn board() -> Albedo {
+        Albedo::Checker { square_mm: 10.0, cols: 3, rows: 2, origin: (0.0, 0.0), dark: 0.1, light: 0.9 }
+    }
+
+    #[test]
+    fn a_box_filtered_checker_averages_what_the_box_covers() {
+        let b = board();
+        // Inside one square the filter is the point sample: square (0, 0) (x, y ∈ [−10, 0)) is dark.
+        assert!((b.box_filtered((0, -5.0, -5.0), 2.0, 2.0) - 0.1).abs() < 1e-12);
+        assert!((b.box_filtered((0, 5.0, -5.0), 2.0, 2.0) - 0.9).abs() < 1e-12);
+        // Centred on an inner corner: two dark and two light quarters.
+        assert!((b.box_filtered((0, 0.0, 0.0), 2.0, 2.0) - 0.5).abs() < 1e-12);
+        // Straddling a vertical edge by a quarter: a quarter dark.
+        assert!((b.box_filtered((0, 1.0, -5.0), 2.0, 2.0) - (0.9 - 0.8 * 0.25)).abs() < 1e-12);
+        // Half on the last (dark) square, half on the light margin beyond it (x ≥ 30).
+        assert!((b.box_filtered((0, 30.0, 5.0), 2.0, 2.0) - 0.5).abs() < 1e-12);
     }
 }
