@@ -249,6 +249,11 @@ pub struct DemoArgs {
     /// Turntable views (36 makes the demo; fewer for a quick look).
     #[arg(long, default_value_t = 36)]
     pub views: u32,
+    /// Process the simulated captures with this rig (say, one `scanrig calibrate all` estimated from
+    /// simulated calibration captures) instead of the simulator's own; the simulator's goes to
+    /// `scan/truth/rig.toml` and accuracy is still measured against the truth.
+    #[arg(long)]
+    pub rig: Option<PathBuf>,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

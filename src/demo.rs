@@ -33,6 +33,9 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         }
     })
     .with_context(|| format!("simulating into {}", scan.display()))?;
+    if let Some(path) = &args.rig {
+        use_rig(&scan, path, &cfg.rig.camera)?;
+    }
     eprintln!("2/2 processing into {}", processed.display());
     let report = crate::process_cmd::run_pipeline(&scan, &processed, &process::ProcessParams::default())?;
     let points: usize = report.views.iter().map(|v| v.points).sum();
@@ -99,6 +102,66 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         );
     }
     println!("  report             {}", processed.join("report.json").display());
+    let diag = vase.bounding_box().map_or(size, |b| b.diagonal());
+    let acc = accuracy(&scan, &processed, &cfg.rig.camera, report.views.len(), diag)?;
+    println!(
+        "  accuracy           {}  (median {:.4} mm = {:.4} % of the object's diagonal from the truth surface; \
+         {:.2} % of visible lit pixels decoded; {:.4} % of points over 1 % of the diagonal off{})",
+        args.out.join("accuracy.json").display(),
+        acc["median_mm"].as_f64().unwrap_or(f64::NAN),
+        acc["median_percent_of_diagonal"].as_f64().unwrap_or(f64::NAN),
+        acc["decoded_percent"].as_f64().unwrap_or(f64::NAN),
+        acc["outlier_percent"].as_f64().unwrap_or(f64::NAN),
+        if args.rig.is_some() { "; with the given rig" } else { "" }
+    );
+    rig::write_atomic(&args.out.join("accuracy.json"), serde_json::to_string_pretty(&acc)?.as_bytes())?;
     println!("  the ground-truth object is {}", scan.join("truth/object.ply").display());
     Ok(())
+}
+
+/// Puts `path`'s rig in the scan folder in place of the simulator's, which moves to `truth/`.
+fn use_rig(scan: &std::path::Path, path: &std::path::Path, camera: &rig::PinholeCamera) -> Result<()> {
+    let given = rig::Rig::read(path)?;
+    if (given.camera.width, given.camera.height) != (camera.width, camera.height) {
+        anyhow::bail!(
+            "{}: its camera is {}x{} but the demo simulates {}x{} (calibrate from captures at that size, \
+             e.g. `scanrig sim --resolution {}x{} --board …`, or pass --full-resolution)",
+            path.display(),
+            given.camera.width,
+            given.camera.height,
+            camera.width,
+            camera.height,
+            camera.width,
+            camera.height
+        );
+    }
+    std::fs::copy(scan.join("rig.toml"), scan.join("truth/rig.toml"))
+        .with_context(|| format!("keeping the simulator's rig in {}", scan.join("truth").display()))?;
+    given.write(&scan.join("rig.toml"))?;
+    Ok(())
+}
+
+/// Issue 4's accuracy measures over every view's range grid, against the truth.
+fn accuracy(
+    scan: &std::path::Path,
+    processed: &std::path::Path,
+    camera: &rig::PinholeCamera,
+    views: usize,
+    diag: f64,
+) -> Result<serde_json::Value> {
+    let mut acc = sim::truth::ViewAccuracy::default();
+    for v in 0..views {
+        let grid = rig::ply::read_range_grid(&processed.join(format!("views/view_{v:03}.ply")))?;
+        acc.add(sim::truth::view_accuracy(&scan.join(format!("truth/view_{v:03}")), camera, &grid, 0.01 * diag)?);
+    }
+    let median = acc.median();
+    Ok(serde_json::json!({
+        "views": views,
+        "points_on_object": acc.distances.len(),
+        "median_mm": median,
+        "diagonal_mm": diag,
+        "median_percent_of_diagonal": 100.0 * median / diag,
+        "decoded_percent": 100.0 * acc.decoded_of_visible_lit as f64 / acc.visible_lit.max(1) as f64,
+        "outlier_percent": 100.0 * acc.far as f64 / acc.decoded.max(1) as f64,
+    }))
 }

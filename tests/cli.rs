@@ -714,3 +714,51 @@ fn calibrate_all_on_a_structured_light_rig_and_the_yaml_import() {
     let o = scanrig(&[&"calibrate", &"import", &out, &"-o", &back]);
     assert!(!o.status.success() && stderr(&o).contains("rig.toml"), "{}", stderr(&o));
 }
+
+/// Issue 5, acceptance 4: a rig from `calibrate all` on simulated captures keeps the demo's accuracy
+/// (issue 4, acceptance 2: median ≤ 0.02 % of the diagonal, ≥ 97 % decoded, < 0.1 % outliers).
+#[test]
+fn a_calibrated_rig_keeps_the_demo_accurate() {
+    let d = Dir::new();
+    let caps = d.path("caps");
+    let o = scanrig(&[
+        &"sim",
+        &"--resolution",
+        &"640x512",
+        &"--board",
+        &"9x6",
+        &"--square",
+        &"11",
+        &"--poses",
+        &"15",
+        &"--sweep=-60:60:10",
+        &"--out",
+        &caps,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rig = d.path("calibrated.toml");
+    let o = scanrig(&[&"calibrate", &"all", &caps, &"-o", &rig, &"--square", &"11"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let demo = d.path("demo");
+    let o = scanrig(&[&"demo", &"--out", &demo, &"--views", &"4", &"--rig", &rig]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("with the given rig"), "{}", stdout(&o));
+    let acc: serde_json::Value = serde_json::from_slice(&std::fs::read(demo.join("accuracy.json")).unwrap()).unwrap();
+    eprintln!("{acc}");
+    assert!(acc["median_percent_of_diagonal"].as_f64().unwrap() <= 0.02, "{acc}");
+    assert!(acc["decoded_percent"].as_f64().unwrap() >= 97.0, "{acc}");
+    assert!(acc["outlier_percent"].as_f64().unwrap() < 0.1, "{acc}");
+    // The simulator's own rig is kept beside the truth; a rig for another camera size is refused.
+    assert!(demo.join("scan/truth/rig.toml").is_file());
+    let o = scanrig(&[
+        &"demo",
+        &"--out",
+        &d.path("d2"),
+        &"--views",
+        &"1",
+        &"--rig",
+        &caps.join("rig.toml"),
+        &"--full-resolution",
+    ]);
+    assert!(!o.status.success() && stderr(&o).contains("640x512"), "{}", stderr(&o));
+}

@@ -110,34 +110,14 @@ fn spot_with_noise_decodes_nearly_every_lit_pixel_onto_the_surface() {
     let diag = spot.bounding_box().unwrap().diagonal();
     let scene = Scene::on_turntable(&cfg, &spot, Albedo::Constant(0.8));
     let (scan, out) = scan_and_process(&cfg, &scene, Some(&spot), Method::StructuredLight, "spot");
-    let (mut dist, mut visible_lit, mut decoded_of_those, mut decoded, mut far) = (Vec::new(), 0, 0, 0, 0);
+    let mut acc = sim::truth::ViewAccuracy::default();
     for v in 0..4 {
-        let t = |f: &str| npy(&scan.join(format!("truth/view_{v:03}/{f}")));
-        let (depth, part, lit, normal) = (t("depth.npy"), t("part.npy"), t("lit.npy"), t("normal.npy"));
-        let truth = truth_points(&cfg.rig.camera, &depth);
         let grid = rig::ply::read_range_grid(&out.join(format!("views/view_{v:03}.ply"))).unwrap();
-        for i in 0..depth.len() {
-            let on_object = part[i] == PartKind::Object as u8 as Real;
-            if on_object && (lit[i] as u8) & 1 == 1 {
-                visible_lit += 1;
-                decoded_of_those += usize::from(grid.valid[i]);
-            }
-            if !grid.valid[i] {
-                continue;
-            }
-            decoded += 1;
-            let Some(tp) = truth[i] else {
-                far += 1; // decoded where the truth sees nothing
-                continue;
-            };
-            let n = Vector3::new(normal[3 * i], normal[3 * i + 1], normal[3 * i + 2]);
-            let d = surface_distance(&grid.points[i], &tp, &n);
-            far += usize::from(d > 0.01 * diag);
-            if on_object {
-                dist.push(d);
-            }
-        }
+        let truth = scan.join(format!("truth/view_{v:03}"));
+        acc.add(sim::truth::view_accuracy(&truth, &cfg.rig.camera, &grid, 0.01 * diag).unwrap());
     }
+    let (mut dist, visible_lit, decoded_of_those, decoded, far) =
+        (acc.distances, acc.visible_lit, acc.decoded_of_visible_lit, acc.decoded, acc.far);
     let median = percentile(&mut dist, 0.5);
     let frac = decoded_of_those as Real / visible_lit as Real;
     let outliers = far as Real / decoded as Real;

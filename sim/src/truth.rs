@@ -75,3 +75,83 @@ pub fn write_view(dir: &Path, g: &ViewGeometry, camera_from_object: &Isometry3, 
     let m = camera_from_object.to_homogeneous();
     write("pose.npy", f64s(vec![4, 4], m.transpose().iter().copied().collect()))
 }
+
+/// How a range grid of one simulated view compares with that view's truth.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ViewAccuracy {
+    /// Per decoded pixel on the object: its point's distance from the truth surface (mm) — the offset
+    /// from the truth point of the same pixel, along the truth normal (the tangent plane's distance).
+    pub distances: Vec<Real>,
+    /// Pixels the truth marks as object, visible and lit by the projector.
+    pub visible_lit: usize,
+    /// Of those, pixels with a point.
+    pub decoded_of_visible_lit: usize,
+    /// Pixels with a point.
+    pub decoded: usize,
+    /// Pixels with a point farther than `far_mm` from the truth, or where the truth sees nothing.
+    pub far: usize,
+}
+
+impl ViewAccuracy {
+    /// Adds another view's counts and distances.
+    pub fn add(&mut self, other: ViewAccuracy) {
+        self.distances.extend(other.distances);
+        self.visible_lit += other.visible_lit;
+        self.decoded_of_visible_lit += other.decoded_of_visible_lit;
+        self.decoded += other.decoded;
+        self.far += other.far;
+    }
+
+    /// The median distance (mm), NaN without points.
+    pub fn median(&self) -> Real {
+        let mut d = self.distances.clone();
+        if d.is_empty() {
+            return Real::NAN;
+        }
+        let mid = d.len() / 2;
+        *d.select_nth_unstable_by(mid, Real::total_cmp).1
+    }
+}
+
+/// Compares `grid` (camera frame, one cell per pixel) with the truth in `dir` (a `truth/view_NNN`
+/// folder) seen through the simulator's `camera`.
+pub fn view_accuracy(
+    dir: &Path,
+    camera: &rig::PinholeCamera,
+    grid: &rig::RangeGrid,
+    far_mm: Real,
+) -> Result<ViewAccuracy, rig::Error> {
+    let read = |name: &str| -> Result<Vec<Real>, rig::Error> { Ok(rig::npy::read(&dir.join(name))?.to_f64()) };
+    let (depth, part, lit, normal) = (read("depth.npy")?, read("part.npy")?, read("lit.npy")?, read("normal.npy")?);
+    let w = camera.width as usize;
+    let n = w * camera.height as usize;
+    if depth.len() != n || grid.points.len() != n || normal.len() != 3 * n {
+        let msg = format!("truth maps and range grid must both be {}x{}", camera.width, camera.height);
+        return Err(rig::ParseError::new(rig::Location::File, rig::Problem::Invalid(msg)).with_path(dir));
+    }
+    let object = crate::scene::PartKind::Object as u8 as Real;
+    let mut acc = ViewAccuracy::default();
+    for i in 0..n {
+        let on_object = part[i] == object;
+        if on_object && (lit[i] as u8) & 1 == 1 {
+            acc.visible_lit += 1;
+            acc.decoded_of_visible_lit += usize::from(grid.valid[i]);
+        }
+        if !grid.valid[i] {
+            continue;
+        }
+        acc.decoded += 1;
+        let ray = camera.unproject(rig::math::Point2::new((i % w) as Real, (i / w) as Real));
+        let Some(truth) = ray.filter(|_| depth[i].is_finite()).map(|d| d.into_inner() * (depth[i] / d.z)) else {
+            acc.far += 1; // a point where the truth sees nothing
+            continue;
+        };
+        let nrm = rig::math::Vector3::new(normal[3 * i], normal[3 * i + 1], normal[3 * i + 2]);
+        let d = (grid.points[i].coords - truth).dot(&nrm).abs();
+        acc.far += usize::from(d > far_mm);
+        if on_object {
+            acc.distances.push(d);
+        }
+    }
+    Ok(acc)
+}
