@@ -28,6 +28,16 @@ fn scanrig(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
     cmd.output().unwrap()
 }
 
+/// `scanrig sim` calibration captures of the 9x6 board with 11 mm squares into `out`.
+fn sim_board(out: &Path, extra: &[&str]) -> Output {
+    let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"sim", &"--board", &"9x6", &"--square", &"11"];
+    for a in extra {
+        args.push(a);
+    }
+    args.extend([&"--out" as &dyn AsRef<std::ffi::OsStr>, &out]);
+    scanrig(&args)
+}
+
 fn stdout(o: &Output) -> String {
     String::from_utf8_lossy(&o.stdout).into_owned()
 }
@@ -538,19 +548,7 @@ fn remesh_turns_a_box_into_quads_along_its_edges_and_names_bad_inputs() {
 fn calibrate_camera_recovers_the_simulated_camera_and_names_bad_folders() {
     let d = Dir::new();
     let caps = d.path("caps");
-    let o = scanrig(&[
-        &"sim",
-        &"--board",
-        &"9x6",
-        &"--square",
-        &"11",
-        &"--poses",
-        &"15",
-        &"--resolution",
-        &"640x512",
-        &"--out",
-        &caps,
-    ]);
+    let o = sim_board(&caps, &["--poses", "15", "--resolution", "640x512"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let truth = rig::Rig::read(&caps.join("rig.toml")).unwrap().camera;
     let out = d.path("rig.toml");
@@ -593,22 +591,7 @@ fn calibrate_camera_recovers_the_simulated_camera_and_names_bad_folders() {
 fn calibrate_all_on_a_laser_rig_gives_its_planes_and_axis_and_names_what_is_missing() {
     let d = Dir::new();
     let caps = d.path("caps");
-    let o = scanrig(&[
-        &"sim",
-        &"--config",
-        &"laser",
-        &"--resolution",
-        &"640x480",
-        &"--board",
-        &"9x6",
-        &"--square",
-        &"11",
-        &"--poses",
-        &"6",
-        &"--sweep=-40:40:10",
-        &"--out",
-        &caps,
-    ]);
+    let o = sim_board(&caps, &["--config", "laser", "--resolution", "640x480", "--poses", "6", "--sweep=-40:40:10"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let truth = rig::Rig::read(&caps.join("rig.toml")).unwrap();
     let out = d.path("rig.toml");
@@ -676,20 +659,7 @@ fn calibrate_all_on_a_laser_rig_gives_its_planes_and_axis_and_names_what_is_miss
 fn calibrate_all_on_a_structured_light_rig_and_the_yaml_import() {
     let d = Dir::new();
     let caps = d.path("caps");
-    let o = scanrig(&[
-        &"sim",
-        &"--resolution",
-        &"640x512",
-        &"--board",
-        &"9x6",
-        &"--square",
-        &"11",
-        &"--poses",
-        &"10",
-        &"--sweep=-30:30:15",
-        &"--out",
-        &caps,
-    ]);
+    let o = sim_board(&caps, &["--resolution", "640x512", "--poses", "10", "--sweep=-30:30:15"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let truth = rig::Rig::read(&caps.join("rig.toml")).unwrap();
     let out = d.path("rig.toml");
@@ -721,20 +691,7 @@ fn calibrate_all_on_a_structured_light_rig_and_the_yaml_import() {
 fn a_calibrated_rig_keeps_the_demo_accurate() {
     let d = Dir::new();
     let caps = d.path("caps");
-    let o = scanrig(&[
-        &"sim",
-        &"--resolution",
-        &"640x512",
-        &"--board",
-        &"9x6",
-        &"--square",
-        &"11",
-        &"--poses",
-        &"15",
-        &"--sweep=-60:60:10",
-        &"--out",
-        &caps,
-    ]);
+    let o = sim_board(&caps, &["--resolution", "640x512", "--poses", "15", "--sweep=-60:60:10"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let rig = d.path("calibrated.toml");
     let o = scanrig(&[&"calibrate", &"all", &caps, &"-o", &rig, &"--square", &"11"]);
