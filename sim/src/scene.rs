@@ -76,7 +76,7 @@ fn cell_shares(a: Real, b: Real, lo: Real, hi: Real) -> (Real, Real) {
 }
 
 impl Albedo {
-    /// Whether [`Albedo::box_filtered`] differs from [`Albedo::at`] (edges a pixel can straddle).
+    /// Whether [`Albedo::box_filtered`] differs from the point sample (edges a pixel can straddle).
     pub fn has_edges(&self) -> bool {
         matches!(self, Albedo::Checker { .. })
     }
