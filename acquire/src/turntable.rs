@@ -1,0 +1,84 @@
+//! What a scan session needs from a turntable controller board, whatever its firmware: turn the
+//! platter to an absolute angle, switch lasers and the motor, and say plainly what went wrong.
+
+use std::time::Duration;
+
+/// A turntable controller (with the scanner's lasers on the same board, as on Ciclop-class rigs).
+pub trait Turntable {
+    /// Turns the platter to `angle_deg` (absolute, counter-clockwise seen from above, from where
+    /// [`Turntable::set_zero`] was last called); returns once the move is done.
+    fn move_to(&mut self, angle_deg: f64) -> Result<(), TurntableError>;
+    /// Makes the current position angle zero.
+    fn set_zero(&mut self) -> Result<(), TurntableError>;
+    /// Switches laser `index` (0-based, as the rig file lists them).
+    fn laser(&mut self, index: usize, on: bool) -> Result<(), TurntableError>;
+    /// Energises (`true`) or releases the stepper.
+    fn motor(&mut self, on: bool) -> Result<(), TurntableError>;
+    /// Sets the turning speed (degrees per second).
+    fn set_speed(&mut self, deg_per_s: f64) -> Result<(), TurntableError>;
+    /// Sets the acceleration (degrees per second²).
+    fn set_acceleration(&mut self, deg_per_s2: f64) -> Result<(), TurntableError>;
+}
+
+/// Why a turntable command failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum TurntableError {
+    /// The port could not be opened or used.
+    #[error("{port}: {message}")]
+    Port {
+        /// The port's name.
+        port: String,
+        /// What the system said.
+        message: String,
+    },
+    /// The board answered, but not with Horus firmware's greeting.
+    #[error("not Horus firmware (check board and baud rate): the board said {0:?}")]
+    NotHorus(String),
+    /// The board runs the old Horus 0.1 firmware.
+    #[error("old Horus firmware ({0:?}): update the board to Horus 0.2")]
+    OldFirmware(String),
+    /// The board said nothing within the time allowed.
+    #[error("no reply to `{command}` within {timeout:?}")]
+    Timeout {
+        /// The command sent.
+        command: String,
+        /// How long the host waited.
+        timeout: Duration,
+    },
+    /// The reply was neither `ok` nor `error: …`, on every try.
+    #[error("`{command}`: unreadable reply {reply:?} after {tries} tries")]
+    Garbled {
+        /// The command sent.
+        command: String,
+        /// The last reply line.
+        reply: String,
+        /// Tries made.
+        tries: usize,
+    },
+    /// The firmware refused the command.
+    #[error("`{command}`: the firmware replied `error: {text}`")]
+    Firmware {
+        /// The command sent.
+        command: String,
+        /// The firmware's text after `error:`.
+        text: String,
+    },
+    /// Several commands in a row failed: the board is gone (unplugged, or reset for good).
+    #[error(
+        "the turntable stopped answering after `{command}` ({failures} failed commands in a row): is it unplugged?"
+    )]
+    Unplugged {
+        /// The last command tried.
+        command: String,
+        /// Consecutive failures.
+        failures: usize,
+    },
+    /// The rig has no such laser.
+    #[error("laser {index} does not exist (the board drives lasers 0 to {max})")]
+    NoSuchLaser {
+        /// The index asked for.
+        index: usize,
+        /// The highest index the dialect knows.
+        max: usize,
+    },
+}
