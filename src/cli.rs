@@ -47,6 +47,129 @@ pub enum Command {
     Demo(DemoArgs),
     /// Simulate a scan on a virtual rig: structured-light or laser frames of a mesh on a turntable, with truth.
     Sim(SimArgs),
+    /// Capture a scan on a rig: a Horus turntable (or the virtual one) and a camera, resumable.
+    Scan(ScanArgs),
+    /// Drive a Horus turntable by hand: check it, turn it, switch a laser or the motor.
+    Turntable(TurntableArgs),
+    /// Run a virtual Horus 0.2 turntable on a pseudo-terminal and print its port (for testing hosts).
+    VirtualTurntable(VirtualTurntableArgs),
+    /// Cameras: list the video devices.
+    Camera {
+        /// What to do.
+        #[command(subcommand)]
+        command: CameraCommand,
+    },
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ScanArgs {
+    /// The scan folder to write (frames, scan.json, rig.toml).
+    #[arg(long, short)]
+    pub out: PathBuf,
+    /// Continue the scan in --out from its first incomplete view.
+    #[arg(long)]
+    pub resume: bool,
+    /// The rig file recorded with the scan (default: the simulator config's rig).
+    #[arg(long)]
+    pub rig: Option<PathBuf>,
+    /// The turntable's serial port (a Horus 0.2 board at 115200 baud); default: the virtual turntable.
+    #[arg(long)]
+    pub port: Option<String>,
+    /// The camera: `sim` (the simulator, watching the virtual turntable; the default) or a folder of
+    /// recorded frames to replay in name order.
+    #[arg(long)]
+    pub camera: Option<PathBuf>,
+    /// The simulated rig and object (for `--camera sim`, and the capture program).
+    #[command(flatten)]
+    pub world: SimWorld,
+    /// Pause after each move before the first frame, ms.
+    #[arg(long, default_value_t = 200)]
+    pub settle_ms: u64,
+    /// Testing: the virtual turntable goes silent after this many commands (an unplugged cable).
+    #[arg(long, hide = true)]
+    pub virtual_unplug_after: Option<usize>,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct TurntableArgs {
+    /// The serial port (default: a virtual turntable, for trying the commands).
+    #[arg(long)]
+    pub port: Option<String>,
+    /// What to do.
+    #[command(subcommand)]
+    pub command: TurntableCommand,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum TurntableCommand {
+    /// Greet the board and check it runs Horus 0.2.
+    Check,
+    /// Turn to an absolute angle (degrees, from where the board was switched on).
+    Move {
+        /// The angle, degrees.
+        #[arg(allow_hyphen_values = true)]
+        degrees: f64,
+        /// Speed, degrees per second.
+        #[arg(long, default_value_t = 50.0)]
+        speed: f64,
+    },
+    /// Switch laser INDEX (0-based) on or off.
+    Laser {
+        /// The laser, 0-based.
+        index: usize,
+        /// on or off.
+        state: OnOff,
+    },
+    /// Energise or release the stepper.
+    Motor {
+        /// on or off.
+        state: OnOff,
+    },
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OnOff {
+    /// On.
+    On,
+    /// Off.
+    Off,
+}
+
+impl OnOff {
+    pub fn on(self) -> bool {
+        self == OnOff::On
+    }
+}
+
+#[derive(clap::Args, Debug)]
+pub struct VirtualTurntableArgs {
+    /// Stop after this many seconds (default: run until Ctrl-C).
+    #[arg(long)]
+    pub seconds: Option<u64>,
+    /// Greet with this line instead of Horus 0.2's (imitates other firmware or a wrong baud rate).
+    #[arg(long)]
+    pub greeting: Option<String>,
+    /// Go silent after this many commands (an unplugged cable).
+    #[arg(long)]
+    pub unplug_after: Option<usize>,
+    /// Never answer these commands (1-based numbers, comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    pub drop_reply: Vec<usize>,
+    /// Answer these commands with a garbled line.
+    #[arg(long, value_delimiter = ',')]
+    pub garble: Vec<usize>,
+    /// Wait this long before every reply, ms.
+    #[arg(long, default_value_t = 0)]
+    pub slow_ms: u64,
+    /// Moves complete at once instead of at the feed rate.
+    #[arg(long)]
+    pub instant: bool,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum CameraCommand {
+    /// List the video devices (V4L2) on this machine.
+    List,
 }
 
 #[derive(clap::Args, Debug)]
@@ -72,8 +195,9 @@ pub struct ConvertArgs {
     pub double: bool,
 }
 
+/// The simulated rig and the object on its platter.
 #[derive(clap::Args, Debug)]
-pub struct SimArgs {
+pub struct SimWorld {
     /// Simulator config: a TOML file, or the built-in `structured-light` or `laser` rig.
     #[arg(long, default_value = "structured-light")]
     pub config: String,
@@ -83,15 +207,9 @@ pub struct SimArgs {
     /// Largest extent of the object on the platter, mm (default: the config's object_size_mm).
     #[arg(long)]
     pub size: Option<f64>,
-    /// Move the object on the platter by X,Y,Z mm (object frame: z up the turntable axis).
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
-    pub offset: Option<[f64; 3]>,
     /// Which axis of the mesh file points up.
     #[arg(long, value_enum, default_value = "y")]
     pub up: Up,
-    /// Capture program (default: structured light when the rig has a projector, else laser).
-    #[arg(long, value_enum)]
-    pub method: Option<SimMethod>,
     /// Turntable views over a full turn (default: the config's).
     #[arg(long)]
     pub views: Option<u32>,
@@ -101,6 +219,19 @@ pub struct SimArgs {
     /// Noise seed: the same seed gives byte-identical frames.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct SimArgs {
+    /// The rig and the object.
+    #[command(flatten)]
+    pub world: SimWorld,
+    /// Move the object on the platter by X,Y,Z mm (object frame: z up the turntable axis).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub offset: Option<[f64; 3]>,
+    /// Capture program (default: structured light when the rig has a projector, else laser).
+    #[arg(long, value_enum)]
+    pub method: Option<SimMethod>,
     /// Output scan folder; a half-finished scan of the same settings there is resumed.
     #[arg(long, short, default_value = "scan-sim")]
     pub out: PathBuf,

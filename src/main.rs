@@ -13,6 +13,7 @@ mod process_cmd;
 mod reconstruct_cmd;
 mod register_cmd;
 mod remesh_cmd;
+mod scan_cmd;
 mod sim_cmd;
 
 use clap::Parser;
@@ -33,6 +34,10 @@ fn main() -> ExitCode {
         cli::Command::Remesh(a) => remesh_cmd::run(&a),
         cli::Command::Demo(a) => demo::run(&a),
         cli::Command::Calibrate(a) => calibrate::run(&a),
+        cli::Command::Scan(a) => scan_cmd::scan(&a),
+        cli::Command::Turntable(a) => scan_cmd::turntable(&a),
+        cli::Command::VirtualTurntable(a) => scan_cmd::virtual_turntable(&a),
+        cli::Command::Camera { command } => scan_cmd::camera(&command),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,6 +1,6 @@
 //! `scanrig sim`: a simulated scan into a scan folder.
 
-use crate::cli::{SimArgs, SimMethod, Up};
+use crate::cli::{SimArgs, SimMethod, SimWorld, Up};
 use anyhow::{Context, Result, bail};
 use rig::Method;
 use sim::{Albedo, Scene, SimConfig, UpAxis};
@@ -22,19 +22,25 @@ pub fn load_config(name: &str) -> Result<SimConfig> {
     })
 }
 
-pub fn run(args: &SimArgs) -> Result<()> {
-    let mut cfg = load_config(&args.config)?;
-    if let Some((w, h)) = args.resolution {
+/// The config the world arguments name: its resolution and view count applied.
+pub fn world_config(world: &SimWorld) -> Result<SimConfig> {
+    let mut cfg = load_config(&world.config)?;
+    if let Some((w, h)) = world.resolution {
         cfg = cfg.with_camera_resolution(w, h);
     }
-    if args.noiseless {
-        cfg.sensor.full_well_e = 0.0;
-    }
-    if let Some(v) = args.views {
+    if let Some(v) = world.views {
         if v == 0 {
             bail!("--views must be at least 1");
         }
         cfg.scan.views = v;
+    }
+    Ok(cfg)
+}
+
+pub fn run(args: &SimArgs) -> Result<()> {
+    let mut cfg = world_config(&args.world)?;
+    if args.noiseless {
+        cfg.sensor.full_well_e = 0.0;
     }
     let method = match args.method {
         Some(SimMethod::StructuredLight) => Method::StructuredLight,
@@ -45,42 +51,15 @@ pub fn run(args: &SimArgs) -> Result<()> {
     if let Some((cols, rows)) = args.board {
         return run_board(args, &cfg, sim::Board { cols, rows, square_mm: args.square });
     }
-    let size = args.size.unwrap_or(cfg.scene.object_size_mm);
+    let size = args.world.size.unwrap_or(cfg.scene.object_size_mm);
     let offset = rig::Vector3::from(args.offset.unwrap_or([0.0; 3]));
-    let (object, albedo) = match &args.mesh {
-        Some(path) => {
-            let mesh = rig::read_mesh(path)?;
-            let up = if args.up == Up::Z { UpAxis::Z } else { UpAxis::Y };
-            let placed = sim::place_on_platter(&mesh, size, up, offset);
-            // Vertex colours, where the file has them, become the albedo (luma).
-            let colors = if rig::MeshFormat::of(path) == Some(rig::MeshFormat::Ply) {
-                rig::ply::read_cloud(path)?.colors
-            } else {
-                None
-            };
-            let albedo = match colors {
-                Some(c) => Albedo::PerVertex {
-                    faces: placed.faces.clone(),
-                    values: c
-                        .iter()
-                        .map(|p| (0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64) / 255.0)
-                        .collect(),
-                },
-                None => Albedo::Constant(cfg.scene.object_albedo),
-            };
-            (placed, albedo)
-        }
-        None => {
-            let vase = sim::place_on_platter(&sim::fluted_vase(size).to_poly(), size, UpAxis::Z, offset);
-            (vase, Albedo::Constant(cfg.scene.object_albedo))
-        }
-    };
+    let (object, albedo) = object_on_platter(&cfg, args.world.mesh.as_deref(), size, args.world.up, offset)?;
     let scene = Scene::on_turntable(&cfg, &object, albedo);
-    let opts = sim::ScanOptions { method, seed: args.seed, truth: !args.no_truth };
+    let opts = sim::ScanOptions { method, seed: args.world.seed, truth: !args.no_truth };
     eprintln!(
         "simulating {} views of {} ({} triangles) at {}×{} into {}",
         cfg.scan.views,
-        args.mesh.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "the built-in vase".into()),
+        args.world.mesh.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "the built-in vase".into()),
         object.faces.len(),
         cfg.rig.camera.width,
         cfg.rig.camera.height,
@@ -111,7 +90,7 @@ fn run_board(args: &SimArgs, cfg: &SimConfig, board: sim::Board) -> Result<()> {
         held: sim::board::default_fixed_poses(&board, distance, held),
         sweep: args.sweep.as_ref().map(|s| s.0.clone()).unwrap_or_default(),
     };
-    let opts = sim::ScanOptions { method: Method::Board, seed: args.seed, truth: !args.no_truth };
+    let opts = sim::ScanOptions { method: Method::Board, seed: args.world.seed, truth: !args.no_truth };
     eprintln!(
         "simulating calibration captures of a {}x{} board ({} mm squares) into {}",
         board.cols,
@@ -147,4 +126,42 @@ fn print_report(args: &SimArgs, report: &sim::ScanReport) -> Result<()> {
         )?;
     }
     Ok(())
+}
+
+/// The object on the platter: a mesh file (its vertex colours, where it has them, as the albedo) or
+/// the built-in fluted vase.
+pub fn object_on_platter(
+    cfg: &SimConfig,
+    mesh: Option<&std::path::Path>,
+    size: f64,
+    up: Up,
+    offset: rig::Vector3,
+) -> Result<(rig::TriMesh, Albedo)> {
+    Ok(match mesh {
+        Some(path) => {
+            let mesh = rig::read_mesh(path)?;
+            let up = if up == Up::Z { UpAxis::Z } else { UpAxis::Y };
+            let placed = sim::place_on_platter(&mesh, size, up, offset);
+            let colors = if rig::MeshFormat::of(path) == Some(rig::MeshFormat::Ply) {
+                rig::ply::read_cloud(path)?.colors
+            } else {
+                None
+            };
+            let albedo = match colors {
+                Some(c) => Albedo::PerVertex {
+                    faces: placed.faces.clone(),
+                    values: c
+                        .iter()
+                        .map(|p| (0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64) / 255.0)
+                        .collect(),
+                },
+                None => Albedo::Constant(cfg.scene.object_albedo),
+            };
+            (placed, albedo)
+        }
+        None => {
+            let vase = sim::place_on_platter(&sim::fluted_vase(size).to_poly(), size, UpAxis::Z, offset);
+            (vase, Albedo::Constant(cfg.scene.object_albedo))
+        }
+    })
 }

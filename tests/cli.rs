@@ -719,3 +719,93 @@ fn a_calibrated_rig_keeps_the_demo_accurate() {
     ]);
     assert!(!o.status.success() && stderr(&o).contains("640x512"), "{}", stderr(&o));
 }
+
+/// Issue 6, acceptances 1 and 3: a session on the virtual turntable with the simulator's camera
+/// writes `scanrig sim`'s frames byte for byte, and processes to the same cloud; an unplugged board
+/// stops it with every completed view kept, and `--resume` finishes the scan without duplicates.
+#[test]
+fn a_scan_on_the_virtual_rig_matches_the_simulator_and_survives_an_unplug() {
+    let d = Dir::new();
+    for config in ["structured-light", "laser"] {
+        let (simulated, scanned) = (d.path(&format!("sim-{config}")), d.path(&format!("scan-{config}")));
+        let common = ["--config", config, "--views", "4", "--resolution", "320x256", "--seed", "9"];
+        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"sim"];
+        args.extend(common.iter().map(|a| a as &dyn AsRef<std::ffi::OsStr>));
+        args.extend([&"--out" as &dyn AsRef<std::ffi::OsStr>, &simulated]);
+        let o = scanrig(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        // Unplugged after the opening (2 commands), the setup (4, plus one per laser) and two views
+        // (1 command, plus 2 per laser): the third view's move fails.
+        let lasers = if config == "laser" { 2 } else { 0 };
+        let unplug = (2 + 4 + lasers + 2 * (1 + 2 * lasers)).to_string();
+        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"scan", &"--settle-ms", &"0"];
+        args.extend(common.iter().map(|a| a as &dyn AsRef<std::ffi::OsStr>));
+        args.extend([&"--out" as &dyn AsRef<std::ffi::OsStr>, &scanned]);
+        let mut first = args.clone();
+        first.extend([&"--virtual-unplug-after" as &dyn AsRef<std::ffi::OsStr>, &unplug]);
+        let o = scanrig(&first);
+        let e = stderr(&o);
+        assert!(!o.status.success() && e.contains("unplugged") && e.contains("2 of 4 views are complete"), "{e}");
+        let m = rig::Manifest::read(&scanned).unwrap();
+        assert_eq!(m.views.iter().filter(|v| v.complete).count(), 2);
+        // Without --resume the folder is not overwritten; with it the scan completes.
+        let o = scanrig(&args);
+        assert!(!o.status.success() && stderr(&o).contains("--resume"), "{}", stderr(&o));
+        let mut again = args.clone();
+        again.push(&"--resume");
+        let o = scanrig(&again);
+        assert!(o.status.success() && stdout(&o).contains("4 of 4 views complete (2 captured now"), "{}", stdout(&o));
+        let (a, b) = (rig::Manifest::read(&simulated).unwrap(), rig::Manifest::read(&scanned).unwrap());
+        assert_eq!(b.views.len(), 4);
+        assert!(b.views.iter().all(|v| v.complete));
+        for (va, vb) in a.views.iter().zip(&b.views) {
+            assert_eq!(va.frames, vb.frames);
+            for f in &va.frames {
+                let (x, y) =
+                    (std::fs::read(simulated.join(&f.file)).unwrap(), std::fs::read(scanned.join(&f.file)).unwrap());
+                assert!(x == y, "{config}: {} differs from the simulator's", f.file);
+            }
+        }
+        let files = |dir: &Path| walk(&dir.join("frames")).len();
+        assert_eq!(files(&scanned), files(&simulated), "no duplicate or stray frames");
+        // The same frames process to the same cloud.
+        for dir in [&simulated, &scanned] {
+            let o = scanrig(&[&"process", dir, &"--until", &"merge"]);
+            assert!(o.status.success(), "{}", stderr(&o));
+        }
+        let (ca, cb) = (
+            rig::ply::read_cloud(&simulated.join("processed/merged.ply")).unwrap(),
+            rig::ply::read_cloud(&scanned.join("processed/merged.ply")).unwrap(),
+        );
+        assert!(
+            ca.positions.len() > 1000 && ca.positions == cb.positions,
+            "{config}: clouds differ ({} vs {} points)",
+            ca.positions.len(),
+            cb.positions.len()
+        );
+    }
+}
+
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        let p = e.path();
+        if p.is_dir() { out.extend(walk(&p)) } else { out.push(p) }
+    }
+    out
+}
+
+#[test]
+fn the_turntable_and_camera_commands_speak_plainly() {
+    let o = scanrig(&[&"turntable", &"move", &"45"]);
+    assert!(o.status.success() && stdout(&o).contains("turned to 45°"), "{}", stderr(&o));
+    let o = scanrig(&[&"turntable", &"--port", &"/dev/nonexistent-scanrig", &"check"]);
+    assert!(!o.status.success() && stderr(&o).contains("/dev/nonexistent-scanrig"), "{}", stderr(&o));
+    let o = scanrig(&[&"camera", &"list"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let has_video =
+        std::fs::read_dir("/dev").unwrap().flatten().any(|e| e.file_name().to_string_lossy().starts_with("video"));
+    if !has_video {
+        assert!(stdout(&o).contains("no camera found"), "{}", stdout(&o));
+    }
+}

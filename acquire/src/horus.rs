@@ -192,8 +192,10 @@ impl<L: Link> HorusTurntable<L> {
         let text = command(&c);
         let mut last = None;
         for attempt in 0..self.opts.tries {
-            if attempt > 0 && matches!(last, Some(TurntableError::Timeout { .. })) {
-                self.resync()?;
+            if attempt > 0 && matches!(last, Some(TurntableError::Timeout { .. })) && self.resync().is_err() {
+                // No greeting after a reset either: the board is gone.
+                self.failures += 1;
+                return Err(TurntableError::Unplugged { command: text, failures: self.failures });
             }
             match self.exchange(&text, timeout) {
                 Ok(()) => {

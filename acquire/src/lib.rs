@@ -7,14 +7,20 @@
 //! - [`turntable`]: the trait a session drives and its typed errors;
 //! - [`horus`]: the Horus 0.2 dialect and driver; [`virtual_horus`]: the same firmware, virtual, on a
 //!   pseudo-terminal, with faults to inject;
-//! - [`mod@line`]: the byte link and line reading with deadlines.
+//! - [`mod@line`]: the byte link and line reading with deadlines;
+//! - [`camera`]: cameras (the trait, image-folder replay) and projector output;
+//! - [`session`]: a resumable scan session writing the simulator's scan-folder layout.
 #![deny(missing_docs)]
 
+pub mod camera;
 pub mod horus;
 pub mod line;
+pub mod session;
 pub mod turntable;
 #[cfg(unix)]
 pub mod virtual_horus;
 
+pub use camera::{Camera, CameraError, FolderCamera, NoProjector, PatternOutput, Shot};
 pub use horus::{HorusOptions, HorusTurntable};
+pub use session::{Devices, Plan, SessionError, SessionReport};
 pub use turntable::{Turntable, TurntableError};

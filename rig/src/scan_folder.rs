@@ -84,6 +84,42 @@ pub struct Manifest {
 }
 
 impl Manifest {
+    /// A new scan's manifest: one incomplete view per angle, each with the frames of `patterns`
+    /// named `frames/view_NNN/FF_<pattern>.png` — the layout the simulator and capture sessions share,
+    /// so their folders are interchangeable frame for frame.
+    pub fn fresh(
+        method: Method,
+        source: &str,
+        seed: Option<u64>,
+        angles: &[f64],
+        patterns: &[crate::Pattern],
+    ) -> Manifest {
+        Manifest {
+            format: SCAN_FORMAT,
+            method,
+            rig: "rig.toml".into(),
+            source: source.into(),
+            seed,
+            views: angles
+                .iter()
+                .enumerate()
+                .map(|(v, &angle_deg)| View {
+                    angle_deg,
+                    frames: patterns
+                        .iter()
+                        .enumerate()
+                        .map(|(f, p)| Frame {
+                            file: format!("frames/view_{v:03}/{f:02}_{}.png", p.name()),
+                            pattern: *p,
+                        })
+                        .collect(),
+                    complete: false,
+                    held: false,
+                })
+                .collect(),
+        }
+    }
+
     /// Parses manifest JSON.
     pub fn from_json(bytes: &[u8]) -> Result<Manifest, ParseError> {
         let m: Manifest = serde_json::from_slice(bytes)

@@ -9,7 +9,7 @@ use crate::scene::Scene;
 use crate::{Error, truth};
 use rayon::prelude::*;
 use rig::math::{Isometry3, Real};
-use rig::scan_folder::{Frame, Manifest, Method, SCAN_FORMAT, View};
+use rig::scan_folder::{Frame, Manifest, Method};
 use rig::{Pattern, TriMesh};
 use serde::Serialize;
 use std::path::Path;
@@ -145,8 +145,9 @@ pub(crate) fn write_view(
     Ok(())
 }
 
-/// The pattern lights of a program, tabulated once per scan.
-pub(crate) fn lights_for(cfg: &SimConfig, patterns: &[Pattern]) -> Vec<PatternLight> {
+/// The pattern lights of a program, tabulated once per scan (a capture session's simulated camera
+/// uses them too).
+pub fn lights_for(cfg: &SimConfig, patterns: &[Pattern]) -> Vec<PatternLight> {
     match &cfg.rig.projector {
         Some(p) => {
             patterns.iter().map(|&pat| PatternLight::new(pat, &p.lens, &cfg.projector, |v| p.drive(v))).collect()
@@ -157,27 +158,7 @@ pub(crate) fn lights_for(cfg: &SimConfig, patterns: &[Pattern]) -> Vec<PatternLi
 
 /// The manifest of a fresh scan: every view incomplete, frame files named by view and pattern.
 pub(crate) fn fresh_manifest(method: Method, seed: u64, angles: &[Real], patterns: &[Pattern]) -> Manifest {
-    Manifest {
-        format: SCAN_FORMAT,
-        method,
-        rig: "rig.toml".into(),
-        source: "simulator".into(),
-        seed: Some(seed),
-        views: angles
-            .iter()
-            .enumerate()
-            .map(|(v, &angle_deg)| View {
-                angle_deg,
-                frames: patterns
-                    .iter()
-                    .enumerate()
-                    .map(|(f, p)| Frame { file: format!("frames/view_{v:03}/{f:02}_{}.png", p.name()), pattern: *p })
-                    .collect(),
-                complete: false,
-                held: false,
-            })
-            .collect(),
-    }
+    Manifest::fresh(method, "simulator", Some(seed), angles, patterns)
 }
 
 /// Options of a simulated scan.

@@ -1,0 +1,256 @@
+//! A scan session: for each turntable step, move, settle, then capture the program — per pattern,
+//! show it and capture; per laser, switch it on, capture, switch it off — write the frames, and
+//! rewrite the manifest atomically. A view counts only once its last frame is on disk and the
+//! manifest says so, so an interrupted session (Ctrl-C, an unplugged board) loses nothing completed,
+//! and `resume` continues from the first incomplete view.
+
+use crate::camera::{Camera, CameraError, PatternOutput, Shot};
+use crate::turntable::{Turntable, TurntableError};
+use rig::scan_folder::{Manifest, Method};
+use rig::{Pattern, Rig};
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+/// What to capture.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Plan {
+    /// Capture method recorded in the manifest.
+    pub method: Method,
+    /// The frames of every view, in capture order.
+    pub patterns: Vec<Pattern>,
+    /// Turntable angle of every view (degrees).
+    pub angles: Vec<f64>,
+    /// Turning speed (degrees per second) and acceleration (degrees per second²).
+    pub speed: f64,
+    /// See `speed`.
+    pub acceleration: f64,
+    /// Pause after each move before the first frame.
+    pub settle: Duration,
+    /// A simulated capture's noise seed, recorded in the manifest.
+    pub seed: Option<u64>,
+}
+
+impl Plan {
+    /// `views` evenly spaced steps over a full turn with `patterns`, at the reference host's speed
+    /// and acceleration (200 °/s, 200 °/s²).
+    pub fn full_turn(method: Method, patterns: Vec<Pattern>, views: usize) -> Plan {
+        let step = 360.0 / views.max(1) as f64;
+        Plan {
+            method,
+            patterns,
+            angles: (0..views).map(|v| v as f64 * step).collect(),
+            speed: 200.0,
+            acceleration: 200.0,
+            settle: Duration::from_millis(200),
+            seed: None,
+        }
+    }
+}
+
+/// What a session did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SessionReport {
+    /// Views captured by this run.
+    pub captured: usize,
+    /// Views complete on disk now (of `total`).
+    pub complete: usize,
+    /// Views in the plan.
+    pub total: usize,
+    /// The view this run started from (0 for a fresh scan).
+    pub started_at: usize,
+    /// Wall time (s).
+    pub seconds: f64,
+}
+
+/// Why a session stopped.
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    /// The output folder cannot take this scan.
+    #[error("{0}")]
+    Folder(String),
+    /// Writing frames, the rig or the manifest.
+    #[error(transparent)]
+    File(#[from] rig::Error),
+    /// The turntable failed at a view.
+    #[error(
+        "view {view} ({angle_deg}°): {error}; {complete} of {total} views are complete on disk (--resume continues)"
+    )]
+    Turntable {
+        /// The view.
+        view: usize,
+        /// Its angle.
+        angle_deg: f64,
+        /// Complete views.
+        complete: usize,
+        /// Views planned.
+        total: usize,
+        /// What failed.
+        error: TurntableError,
+    },
+    /// The camera or projector failed at a view.
+    #[error("view {view}: {error}; {complete} of {total} views are complete on disk (--resume continues)")]
+    Camera {
+        /// The view.
+        view: usize,
+        /// Complete views.
+        complete: usize,
+        /// Views planned.
+        total: usize,
+        /// What failed.
+        error: Box<CameraError>,
+    },
+}
+
+/// The devices of a session.
+pub struct Devices<'a> {
+    /// The turntable (and its lasers).
+    pub turntable: &'a mut dyn Turntable,
+    /// The camera.
+    pub camera: &'a mut dyn Camera,
+    /// The projector's output.
+    pub projector: &'a mut dyn PatternOutput,
+}
+
+/// Runs `plan` into `out` with `rig` (written beside the frames). `progress(done, total, eta)` after
+/// every view.
+pub fn run(
+    out: &Path,
+    rig: &Rig,
+    plan: &Plan,
+    resume: bool,
+    dev: Devices,
+    mut progress: impl FnMut(usize, usize, Option<Duration>),
+) -> Result<SessionReport, SessionError> {
+    let start = Instant::now();
+    let total = plan.angles.len();
+    if total == 0 || plan.patterns.is_empty() {
+        return Err(SessionError::Folder("the plan has no views or no frames".into()));
+    }
+    let (w, h) = dev.camera.size();
+    if (w, h) != (rig.camera.width, rig.camera.height) {
+        return Err(SessionError::Folder(format!(
+            "the camera delivers {w}x{h} frames but the rig's camera is {}x{}",
+            rig.camera.width, rig.camera.height
+        )));
+    }
+    let fresh = Manifest::fresh(plan.method, "scanrig scan", plan.seed, &plan.angles, &plan.patterns);
+    std::fs::create_dir_all(out).map_err(|e| rig::Error::io(out, e))?;
+    let mut manifest = if out.join("scan.json").is_file() {
+        let old = Manifest::read(out)?;
+        if !resume {
+            return Err(SessionError::Folder(format!(
+                "{} already holds a scan: pass --resume to continue it, or choose another folder",
+                out.display()
+            )));
+        }
+        let same = old.method == fresh.method
+            && old.views.len() == total
+            && old.views.iter().zip(&fresh.views).all(|(a, b)| a.frames == b.frames && a.angle_deg == b.angle_deg);
+        if !same {
+            return Err(SessionError::Folder(format!(
+                "{} holds a different scan (views, angles or frames differ): it cannot be resumed with this plan",
+                out.display()
+            )));
+        }
+        old
+    } else {
+        rig.write(&out.join("rig.toml"))?;
+        fresh.write(out)?;
+        fresh
+    };
+    let first = manifest.first_incomplete().unwrap_or(total);
+    let complete = |m: &Manifest| m.views.iter().filter(|v| v.complete).count();
+    if first == total {
+        return Ok(SessionReport { captured: 0, complete: total, total, started_at: total, seconds: 0.0 });
+    }
+    let lasers = plan
+        .patterns
+        .iter()
+        .filter_map(|p| if let Pattern::Laser { index } = p { Some(index + 1) } else { None })
+        .max()
+        .unwrap_or(0);
+    let Devices { turntable, camera, projector } = dev;
+    let tt_err = |view: usize, m: &Manifest, e: TurntableError| SessionError::Turntable {
+        view,
+        angle_deg: plan.angles[view],
+        complete: complete(m),
+        total,
+        error: e,
+    };
+    // The reference host's scan setup: lasers off, motor on, position zero, speed and acceleration.
+    let setup = |t: &mut dyn Turntable| -> Result<(), TurntableError> {
+        for i in 0..lasers {
+            t.laser(i, false)?;
+        }
+        t.motor(true)?;
+        if first == 0 {
+            t.set_zero()?;
+        }
+        t.set_speed(plan.speed)?;
+        t.set_acceleration(plan.acceleration)
+    };
+    setup(turntable).map_err(|e| tt_err(first, &manifest, e))?;
+    let mut captured = 0;
+    for v in first..total {
+        if manifest.views[v].complete {
+            continue;
+        }
+        turntable.move_to(plan.angles[v]).map_err(|e| tt_err(v, &manifest, e))?;
+        std::thread::sleep(plan.settle);
+        let dir = out.join(format!("frames/view_{v:03}"));
+        std::fs::create_dir_all(&dir).map_err(|e| rig::Error::io(&dir, e))?;
+        for (f, frame) in manifest.views[v].frames.clone().iter().enumerate() {
+            let shot = Shot { view: v, frame: f, pattern: frame.pattern };
+            let cam_err = |m: &Manifest, e: CameraError| SessionError::Camera {
+                view: v,
+                complete: complete(m),
+                total,
+                error: Box::new(e),
+            };
+            let img = match frame.pattern {
+                Pattern::LaserOff => camera.capture(&shot),
+                Pattern::Laser { index } => {
+                    turntable.laser(index, true).map_err(|e| tt_err(v, &manifest, e))?;
+                    let img = camera.capture(&shot);
+                    turntable.laser(index, false).map_err(|e| tt_err(v, &manifest, e))?;
+                    img
+                }
+                p => {
+                    projector.show(Some(p)).map_err(|e| cam_err(&manifest, e))?;
+                    camera.capture(&shot)
+                }
+            }
+            .map_err(|e| cam_err(&manifest, e))?;
+            // Frames are plain writes: the view counts only once the manifest says it is complete.
+            let path = out.join(&frame.file);
+            std::fs::write(&path, rig::image::png_bytes(&img, true)).map_err(|e| rig::Error::io(&path, e))?;
+        }
+        projector.show(None).map_err(|e| SessionError::Camera {
+            view: v,
+            complete: complete(&manifest),
+            total,
+            error: Box::new(e),
+        })?;
+        manifest.views[v].complete = true;
+        manifest.write(out)?;
+        captured += 1;
+        let per_view = start.elapsed().as_secs_f64() / captured as f64;
+        let left = total - complete(&manifest);
+        progress(complete(&manifest), total, Some(Duration::from_secs_f64(per_view * left as f64)));
+    }
+    // Finish: lasers off, motor released.
+    let finish = |t: &mut dyn Turntable| -> Result<(), TurntableError> {
+        for i in 0..lasers {
+            t.laser(i, false)?;
+        }
+        t.motor(false)
+    };
+    finish(turntable).map_err(|e| tt_err(total - 1, &manifest, e))?;
+    Ok(SessionReport {
+        captured,
+        complete: complete(&manifest),
+        total,
+        started_at: first,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}

@@ -1,0 +1,235 @@
+//! `scanrig scan`: a capture session on a rig — a Horus turntable on a serial port or the virtual
+//! board, the simulator's camera or a folder of recorded frames — into a scan folder that resumes;
+//! `scanrig turntable`, `scanrig virtual-turntable` and `scanrig camera` for the devices alone.
+
+use crate::cli::{CameraCommand, ScanArgs, TurntableArgs, TurntableCommand, VirtualTurntableArgs};
+use acquire::camera::{Camera, CameraError, PatternOutput, Shot};
+use acquire::virtual_horus::{BoardState, Faults, VirtualBoard};
+use acquire::{HorusOptions, HorusTurntable, Turntable};
+use anyhow::{Context, Result, bail};
+use rig::image::Image8;
+use rig::{Method, Pattern};
+use sim::{Scene, SimConfig, ViewGeometry};
+use std::io::Write;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// The simulator as a camera: it renders what the virtual board's platter and lasers and the
+/// simulated projector show at the moment of capture, with the simulator's noise for that view and
+/// frame, so a session on the virtual rig records exactly what `scanrig sim` writes.
+struct SimCamera<'a> {
+    cfg: &'a SimConfig,
+    scene: &'a Scene,
+    rays: Vec<rig::Vector3>,
+    program: Vec<Pattern>,
+    lights: Vec<sim::light::PatternLight>,
+    seed: u64,
+    board: Arc<Mutex<BoardState>>,
+    shown: Arc<Mutex<Option<Pattern>>>,
+    geometry: Option<(f64, ViewGeometry)>,
+}
+
+impl Camera for SimCamera<'_> {
+    fn size(&self) -> (u32, u32) {
+        (self.cfg.rig.camera.width, self.cfg.rig.camera.height)
+    }
+
+    fn capture(&mut self, shot: &Shot) -> Result<Image8, CameraError> {
+        let board = self.board.lock().expect("board state").clone();
+        // What is lit now: the projected pattern, else the lasers that are on.
+        let showing = match *self.shown.lock().expect("projector state") {
+            Some(p) => p,
+            None => match board.lasers.iter().position(|&on| on) {
+                Some(index) => Pattern::Laser { index },
+                None => Pattern::LaserOff,
+            },
+        };
+        let k = self.program.iter().position(|&p| p == showing).ok_or_else(|| {
+            CameraError::Frame(format!("the simulated rig cannot show {showing:?} (not in its capture program)"))
+        })?;
+        let angle = board.angle_deg;
+        if self.geometry.as_ref().is_none_or(|(a, _)| *a != angle) {
+            let pose = sim::scan::view_pose(self.cfg, angle);
+            self.geometry = Some((angle, sim::view_geometry(self.scene, self.cfg, &self.rays, &pose)));
+        }
+        let g = &self.geometry.as_ref().expect("just computed").1;
+        Ok(sim::render_frame(g, self.cfg, &self.lights[k], sim::render::frame_key(self.seed, shot.view, shot.frame)))
+    }
+}
+
+/// The simulated projector: what it shows, the simulator camera sees.
+struct SimProjector(Arc<Mutex<Option<Pattern>>>);
+
+impl PatternOutput for SimProjector {
+    fn show(&mut self, pattern: Option<Pattern>) -> Result<(), CameraError> {
+        *self.0.lock().expect("projector state") = pattern;
+        Ok(())
+    }
+}
+
+fn open_port(port: &str) -> Result<Box<dyn serialport::SerialPort>> {
+    serialport::new(port, 115_200)
+        .timeout(Duration::from_millis(100))
+        .open()
+        .with_context(|| format!("opening the turntable's serial port {port}"))
+}
+
+pub fn scan(args: &ScanArgs) -> Result<()> {
+    let cfg = crate::sim_cmd::world_config(&args.world)?;
+    let method = if cfg.rig.projector.is_some() { Method::StructuredLight } else { Method::Laser };
+    let program = sim::scan::program(&cfg, method)?;
+    let rig = match &args.rig {
+        Some(p) => rig::Rig::read(p)?,
+        None => {
+            let mut r = cfg.rig.clone();
+            if cfg.rig.turntable.is_some() && cfg.scene.platter_radius_mm > 0.0 {
+                r.platter_radius_mm = Some(cfg.scene.platter_radius_mm);
+            }
+            r
+        }
+    };
+    let mut plan = acquire::Plan::full_turn(method, program.clone(), cfg.scan.views as usize);
+    plan.seed = Some(args.world.seed);
+    plan.settle = Duration::from_millis(args.settle_ms);
+
+    // The turntable: a board on a serial port, or the virtual one.
+    let board = match &args.port {
+        None => Some(VirtualBoard::start(Faults { unplug_after: args.virtual_unplug_after, ..Faults::default() })?),
+        Some(_) => None,
+    };
+    let port = args.port.clone().unwrap_or_else(|| board.as_ref().expect("virtual").port.clone());
+    let opts = HorusOptions {
+        motor_settle: if board.is_some() { Duration::ZERO } else { Duration::from_secs(1) },
+        ..HorusOptions::default()
+    };
+    let mut turntable = HorusTurntable::connect(open_port(&port)?, &port, opts)?;
+
+    // The camera: the simulator (watching the virtual board), or recorded frames.
+    let size = args.world.size.unwrap_or(cfg.scene.object_size_mm);
+    let (object, albedo) = crate::sim_cmd::object_on_platter(
+        &cfg,
+        args.world.mesh.as_deref(),
+        size,
+        args.world.up,
+        rig::Vector3::zeros(),
+    )?;
+    let scene = Scene::on_turntable(&cfg, &object, albedo);
+    let shown = Arc::new(Mutex::new(None));
+    let mut projector = SimProjector(shown.clone());
+    let mut camera: Box<dyn Camera> = match &args.camera {
+        Some(dir) if dir.as_os_str() != "sim" => Box::new(acquire::FolderCamera::open(dir)?),
+        _ => {
+            let Some(b) = &board else {
+                bail!("the simulator camera needs the virtual turntable (leave out --port), or give --camera FOLDER");
+            };
+            Box::new(SimCamera {
+                cfg: &cfg,
+                scene: &scene,
+                rays: sim::pixel_rays(&cfg.rig.camera),
+                lights: sim::scan::lights_for(&cfg, &program),
+                program: program.clone(),
+                seed: args.world.seed,
+                board: b.state.clone(),
+                shown: shown.clone(),
+                geometry: None,
+            })
+        }
+    };
+    eprintln!(
+        "scanning {} views ({} frames each) on {} into {}{}",
+        plan.angles.len(),
+        program.len(),
+        if board.is_some() { format!("the virtual turntable at {port}") } else { port.clone() },
+        args.out.display(),
+        if args.resume { " (resuming)" } else { "" }
+    );
+    let devices = acquire::Devices { turntable: &mut turntable, camera: camera.as_mut(), projector: &mut projector };
+    let report = acquire::session::run(&args.out, &rig, &plan, args.resume, devices, |done, total, eta| {
+        let eta = eta.map(|d| format!(", about {:.0} s left", d.as_secs_f64())).unwrap_or_default();
+        eprint!("\r  view {done}/{total}{eta}      ");
+        if done == total {
+            eprintln!();
+        }
+    })
+    .inspect_err(|_| eprintln!())?;
+    let mut o = std::io::stdout().lock();
+    writeln!(
+        o,
+        "{}: {} of {} views complete ({} captured now, from view {}) in {:.1} s",
+        args.out.display(),
+        report.complete,
+        report.total,
+        report.captured,
+        report.started_at,
+        report.seconds
+    )?;
+    Ok(())
+}
+
+pub fn turntable(args: &TurntableArgs) -> Result<()> {
+    let board = if args.port.is_none() { Some(VirtualBoard::start(Faults::default())?) } else { None };
+    let port = args.port.clone().unwrap_or_else(|| board.as_ref().expect("virtual").port.clone());
+    let mut t = HorusTurntable::connect(open_port(&port)?, &port, HorusOptions::default())?;
+    match &args.command {
+        TurntableCommand::Move { degrees, speed } => {
+            t.set_speed(*speed)?;
+            t.move_to(*degrees)?;
+            println!("{port}: turned to {degrees}°");
+        }
+        TurntableCommand::Laser { index, state } => {
+            t.laser(*index, state.on())?;
+            println!("{port}: laser {index} {}", if state.on() { "on" } else { "off" });
+        }
+        TurntableCommand::Motor { state } => {
+            t.motor(state.on())?;
+            println!("{port}: motor {}", if state.on() { "on" } else { "off" });
+        }
+        TurntableCommand::Check => println!("{port}: Horus 0.2 firmware answered"),
+    }
+    Ok(())
+}
+
+pub fn virtual_turntable(args: &VirtualTurntableArgs) -> Result<()> {
+    let faults = Faults {
+        unplug_after: args.unplug_after,
+        drop_reply: args.drop_reply.clone(),
+        garble: args.garble.clone(),
+        slow: Duration::from_millis(args.slow_ms),
+        real_time_moves: !args.instant,
+        greeting: args.greeting.clone().unwrap_or_else(|| Faults::default().greeting),
+        ..Faults::default()
+    };
+    let board = VirtualBoard::start(faults)?;
+    println!("{}", board.port);
+    std::io::stdout().flush()?;
+    eprintln!("virtual Horus 0.2 turntable on {} (115200 baud); Ctrl-C stops it", board.port);
+    let seconds = args.seconds.unwrap_or(u64::MAX);
+    for _ in 0..seconds.saturating_mul(10) {
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    Ok(())
+}
+
+pub fn camera(cmd: &CameraCommand) -> Result<()> {
+    match cmd {
+        CameraCommand::List => {
+            let mut devices: Vec<String> = std::fs::read_dir("/dev")
+                .map(|d| {
+                    d.filter_map(|e| e.ok())
+                        .map(|e| e.path().display().to_string())
+                        .filter(|p| p.starts_with("/dev/video"))
+                        .collect()
+                })
+                .unwrap_or_default();
+            devices.sort();
+            if devices.is_empty() {
+                println!("no camera found: there is no /dev/video* device on this machine");
+            } else {
+                for d in devices {
+                    println!("{d}");
+                }
+            }
+        }
+    }
+    Ok(())
+}
