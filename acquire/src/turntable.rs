@@ -64,9 +64,7 @@ pub enum TurntableError {
         text: String,
     },
     /// Several commands in a row failed: the board is gone (unplugged, or reset for good).
-    #[error(
-        "the turntable stopped answering after `{command}` ({failures} failed commands in a row): is it unplugged?"
-    )]
+    #[error("the turntable stopped answering at `{command}` ({failures} command(s) failed in a row): is it unplugged?")]
     Unplugged {
         /// The last command tried.
         command: String,
