@@ -59,6 +59,34 @@ pub enum Command {
         #[command(subcommand)]
         command: CameraCommand,
     },
+    /// The projector: show a pattern fullscreen (feature `projector-window`).
+    Projector {
+        /// What to do.
+        #[command(subcommand)]
+        command: ProjectorCommand,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+pub enum ProjectorCommand {
+    /// Show one pattern of the structured-light program fullscreen, e.g. `white`, `gray_col_00`,
+    /// `gray_row_03_inv`, `phase_col_p16_1of4`.
+    Show {
+        /// The pattern's name (as frame files are named).
+        pattern: String,
+        /// The projector's resolution.
+        #[arg(long, value_parser = parse_size, default_value = "1024x768")]
+        size: (u32, u32),
+        /// Monitor index (default: the primary one).
+        #[arg(long)]
+        monitor: Option<usize>,
+        /// Keep it shown this long, seconds.
+        #[arg(long, default_value_t = 10.0)]
+        seconds: f64,
+        /// The projector's response exponent (light = drive^gamma).
+        #[arg(long, default_value_t = 1.0)]
+        gamma: f64,
+    },
 }
 
 #[derive(clap::Args, Debug)]
@@ -75,10 +103,14 @@ pub struct ScanArgs {
     /// The turntable's serial port (a Horus 0.2 board at 115200 baud); default: the virtual turntable.
     #[arg(long)]
     pub port: Option<String>,
-    /// The camera: `sim` (the simulator, watching the virtual turntable; the default) or a folder of
-    /// recorded frames to replay in name order.
+    /// The camera: `sim` (the simulator, watching the virtual turntable; the default), a V4L2 device
+    /// such as `/dev/video0` (feature `v4l2`), or a folder of recorded frames to replay in name order.
     #[arg(long)]
     pub camera: Option<PathBuf>,
+    /// Show the patterns in a fullscreen window on this monitor (feature `projector-window`); without
+    /// it, the simulator's projector (with the simulated camera) or none.
+    #[arg(long)]
+    pub projector_monitor: Option<usize>,
     /// The simulated rig and object (for `--camera sim`, and the capture program).
     #[command(flatten)]
     pub world: SimWorld,
@@ -510,7 +542,12 @@ pub struct CalibrateArgs {
     /// A capture folder (`scanrig sim --board` writes one), a folder of PNG or JPEG images, or a
     /// `'dir/*.png'` pattern; for `import`, an OpenCV YAML camera file. In an image folder a frame
     /// much darker than the lit frame before it is that position's laser frame (laser 0, then 1).
-    pub captures: PathBuf,
+    #[arg(required_unless_present = "images")]
+    pub captures: Option<PathBuf>,
+    /// Images made by other tools, as a folder or a `'dir/*.png'` pattern (the same as giving them
+    /// in place of CAPTURES).
+    #[arg(long, conflicts_with = "captures")]
+    pub images: Option<PathBuf>,
     /// The rig file to write; an existing one keeps everything but what is calibrated.
     #[arg(long, short)]
     pub out: PathBuf,

@@ -38,6 +38,7 @@ fn main() -> ExitCode {
         cli::Command::Turntable(a) => scan_cmd::turntable(&a),
         cli::Command::VirtualTurntable(a) => scan_cmd::virtual_turntable(&a),
         cli::Command::Camera { command } => scan_cmd::camera(&command),
+        cli::Command::Projector { command } => scan_cmd::projector(&command),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -115,8 +115,12 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
     )?;
     let scene = Scene::on_turntable(&cfg, &object, albedo);
     let shown = Arc::new(Mutex::new(None));
-    let mut projector = SimProjector(shown.clone());
+    let mut projector: Box<dyn PatternOutput> = match args.projector_monitor {
+        Some(m) => open_window(m, &rig)?,
+        None => Box::new(SimProjector(shown.clone())),
+    };
     let mut camera: Box<dyn Camera> = match &args.camera {
+        Some(dev) if dev.starts_with("/dev/video") => open_v4l2(&dev.display().to_string(), &rig)?,
         Some(dir) if dir.as_os_str() != "sim" => Box::new(acquire::FolderCamera::open(dir)?),
         _ => {
             let Some(b) = &board else {
@@ -143,7 +147,8 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
         args.out.display(),
         if args.resume { " (resuming)" } else { "" }
     );
-    let devices = acquire::Devices { turntable: &mut turntable, camera: camera.as_mut(), projector: &mut projector };
+    let devices =
+        acquire::Devices { turntable: &mut turntable, camera: camera.as_mut(), projector: projector.as_mut() };
     let report = acquire::session::run(&args.out, &rig, &plan, args.resume, devices, |done, total, eta| {
         let eta = eta.map(|d| format!(", about {:.0} s left", d.as_secs_f64())).unwrap_or_default();
         eprint!("\r  view {done}/{total}{eta}      ");
@@ -210,18 +215,88 @@ pub fn virtual_turntable(args: &VirtualTurntableArgs) -> Result<()> {
     Ok(())
 }
 
+#[cfg(feature = "v4l2")]
+fn open_v4l2(path: &str, rig: &rig::Rig) -> Result<Box<dyn Camera>> {
+    let opts =
+        acquire::v4l2_camera::V4l2Options { width: rig.camera.width, height: rig.camera.height, ..Default::default() };
+    let cam = acquire::v4l2_camera::V4l2Camera::open(path, &opts)?;
+    for r in &cam.refused {
+        eprintln!("warning: {path}: {r}");
+    }
+    Ok(Box::new(cam))
+}
+
+#[cfg(not(feature = "v4l2"))]
+fn open_v4l2(path: &str, _rig: &rig::Rig) -> Result<Box<dyn Camera>> {
+    bail!("{path}: this scanrig was built without V4L2 support; rebuild with `--features v4l2`")
+}
+
+#[cfg(feature = "projector-window")]
+fn open_window(monitor: usize, rig: &rig::Rig) -> Result<Box<dyn PatternOutput>> {
+    let p = rig.projector.as_ref().ok_or_else(|| anyhow::anyhow!("the rig has no projector to show patterns on"))?;
+    Ok(Box::new(acquire::projector_window::WindowProjector::open(Some(monitor), p.lens.width, p.lens.height, p.gamma)?))
+}
+
+#[cfg(not(feature = "projector-window"))]
+fn open_window(_monitor: usize, _rig: &rig::Rig) -> Result<Box<dyn PatternOutput>> {
+    bail!("this scanrig was built without the projector window; rebuild with `--features projector-window`")
+}
+
+pub fn projector(cmd: &crate::cli::ProjectorCommand) -> Result<()> {
+    let crate::cli::ProjectorCommand::Show { pattern, size, monitor, seconds, gamma } = cmd;
+    let phase = [
+        rig::patterns::PhaseShift { axis: rig::patterns::Axis::Columns, period_px: 16.0, steps: 4 },
+        rig::patterns::PhaseShift { axis: rig::patterns::Axis::Rows, period_px: 16.0, steps: 4 },
+    ];
+    let program = rig::patterns::structured_light_sequence(size.0, size.1, &phase);
+    let Some(p) = program.iter().find(|p| p.name() == *pattern) else {
+        let names: Vec<String> = program.iter().take(6).map(|p| p.name()).collect();
+        bail!("no pattern `{pattern}` for a {}x{} projector (names look like {}, …)", size.0, size.1, names.join(", "));
+    };
+    show_window(*p, *size, *monitor, *seconds, *gamma)
+}
+
+#[cfg(feature = "projector-window")]
+fn show_window(p: Pattern, size: (u32, u32), monitor: Option<usize>, seconds: f64, gamma: f64) -> Result<()> {
+    let mut w = acquire::projector_window::WindowProjector::open(monitor, size.0, size.1, gamma)?;
+    w.show(Some(p))?;
+    println!("showing {} at {}x{}", p.name(), size.0, size.1);
+    std::io::stdout().flush()?;
+    std::thread::sleep(Duration::from_secs_f64(seconds.max(0.0)));
+    Ok(())
+}
+
+#[cfg(not(feature = "projector-window"))]
+fn show_window(_p: Pattern, _size: (u32, u32), _monitor: Option<usize>, _seconds: f64, _gamma: f64) -> Result<()> {
+    bail!("this scanrig was built without the projector window; rebuild with `--features projector-window`")
+}
+
+#[cfg(feature = "v4l2")]
+fn video_devices() -> Vec<String> {
+    acquire::v4l2_camera::list_devices().into_iter().map(|(path, name)| format!("{path}  {name}")).collect()
+}
+
+#[cfg(not(feature = "v4l2"))]
+fn video_devices() -> Vec<String> {
+    let mut devices: Vec<String> = std::fs::read_dir("/dev")
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .map(|e| e.path().display().to_string())
+                .filter(|p| p.starts_with("/dev/video"))
+                .collect()
+        })
+        .unwrap_or_default();
+    devices.sort();
+    devices
+        .into_iter()
+        .map(|d| format!("{d}  (this scanrig was built without V4L2 support: `--features v4l2` to capture from it)"))
+        .collect()
+}
+
 pub fn camera(cmd: &CameraCommand) -> Result<()> {
     match cmd {
         CameraCommand::List => {
-            let mut devices: Vec<String> = std::fs::read_dir("/dev")
-                .map(|d| {
-                    d.filter_map(|e| e.ok())
-                        .map(|e| e.path().display().to_string())
-                        .filter(|p| p.starts_with("/dev/video"))
-                        .collect()
-                })
-                .unwrap_or_default();
-            devices.sort();
+            let devices = video_devices();
             if devices.is_empty() {
                 println!("no camera found: there is no /dev/video* device on this machine");
             } else {

@@ -650,7 +650,16 @@ fn calibrate_all_on_a_laser_rig_gives_its_planes_and_axis_and_names_what_is_miss
     for n in ["a.png", "b.png", "c.png", "d.png"] {
         std::fs::copy(caps.join(lit), same.join(n)).unwrap();
     }
-    let o = scanrig(&[&"calibrate", &"camera", &same, &"-o", &d.path("x.toml"), &"--square", &"11"]);
+    let o = scanrig(&[
+        &"calibrate",
+        &"camera",
+        &"--images",
+        &same.join("*.png"),
+        &"-o",
+        &d.path("x.toml"),
+        &"--square",
+        &"11",
+    ]);
     let e = stderr(&o);
     assert!(!o.status.success() && e.contains("parallel") && e.contains("a.png"), "{e}");
 }

@@ -9,14 +9,20 @@
 //!   pseudo-terminal, with faults to inject;
 //! - [`mod@line`]: the byte link and line reading with deadlines;
 //! - [`camera`]: cameras (the trait, image-folder replay) and projector output;
-//! - [`session`]: a resumable scan session writing the simulator's scan-folder layout.
+//! - [`session`]: a resumable scan session writing the simulator's scan-folder layout;
+//! - `v4l2_camera` (feature `v4l2`): V4L2 webcams; `projector_window` (feature
+//!   `projector-window`): the projector as a fullscreen window.
 #![deny(missing_docs)]
 
 pub mod camera;
 pub mod horus;
 pub mod line;
+#[cfg(feature = "projector-window")]
+pub mod projector_window;
 pub mod session;
 pub mod turntable;
+#[cfg(feature = "v4l2")]
+pub mod v4l2_camera;
 #[cfg(unix)]
 pub mod virtual_horus;
 

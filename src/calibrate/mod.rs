@@ -17,8 +17,9 @@ use std::path::{Path, PathBuf};
 use steps::{Board, Found};
 
 pub fn run(args: &CalibrateArgs) -> Result<()> {
+    let source = args.captures.clone().or_else(|| args.images.clone()).expect("clap requires one of them");
     if args.target == CalibrateTarget::Import {
-        return import(args);
+        return import(args, &source);
     }
     let (cols, rows) = args.board;
     if cols < 2 || rows < 2 || !(args.square > 0.0 && args.square.is_finite()) {
@@ -32,7 +33,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
             .collect(),
     };
     let turn = Orientation { transpose: args.transpose, flip: args.flip };
-    let positions = captures::load(&args.captures, turn)?;
+    let positions = captures::load(&source, turn)?;
 
     // The board in every lit frame; all frames of one camera share a size.
     let mut size: Option<(u32, u32, PathBuf)> = None;
@@ -68,7 +69,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
 
     let target = args.target;
     let wants = |t: CalibrateTarget| target == t || target == CalibrateTarget::All;
-    let base = [args.out.clone(), args.rig.clone().unwrap_or_default(), args.captures.join("rig.toml")]
+    let base = [args.out.clone(), args.rig.clone().unwrap_or_default(), source.join("rig.toml")]
         .into_iter()
         .find(|p| p.is_file());
     let base = base.as_deref().map(Rig::read).transpose()?;
@@ -164,8 +165,8 @@ fn with_missed(e: anyhow::Error, missed: &[(PathBuf, String)]) -> anyhow::Error 
 }
 
 /// `scanrig calibrate import camera.yml -o rig.toml`: an OpenCV YAML camera into a rig file.
-fn import(args: &CalibrateArgs) -> Result<()> {
-    let camera = rig::opencv_yaml::read_camera(&args.captures)?;
+fn import(args: &CalibrateArgs, source: &Path) -> Result<()> {
+    let camera = rig::opencv_yaml::read_camera(source)?;
     let mut rig = match [args.out.clone(), args.rig.clone().unwrap_or_default()].into_iter().find(|p| p.is_file()) {
         Some(p) => Rig::read(&p)?,
         None => camera_only("imported camera", camera),
@@ -177,7 +178,7 @@ fn import(args: &CalibrateArgs) -> Result<()> {
         args.out.display(),
         camera.width,
         camera.height,
-        args.captures.display(),
+        source.display(),
         camera.fx,
         camera.fy,
         camera.cx,
