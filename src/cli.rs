@@ -94,7 +94,8 @@ pub struct ScanArgs {
     /// The scan folder to write (frames, scan.json, rig.toml).
     #[arg(long, short)]
     pub out: PathBuf,
-    /// Continue the scan in --out from its first incomplete view.
+    /// Continue the scan in --out from its first incomplete view. A Horus board cannot tell where
+    /// the platter is after a reset or an unplug: turn it back to the mark it started from (0°).
     #[arg(long)]
     pub resume: bool,
     /// The rig file recorded with the scan (default: the simulator config's rig).
@@ -578,8 +579,9 @@ pub struct CalibrateArgs {
     /// Also export the camera in OpenCV's YAML layout.
     #[arg(long)]
     pub yaml: Option<PathBuf>,
-    /// The rig whose camera the projector, laser or turntable steps use when the camera is not
-    /// calibrated too (default: the output rig, else the capture folder's).
+    /// The rig to start from: its camera serves the projector, laser or turntable steps when the
+    /// camera is not calibrated too, and what is not calibrated is kept (default: the output rig if
+    /// it exists, else the capture folder's).
     #[arg(long)]
     pub rig: Option<PathBuf>,
     /// How high the board's lowest inner corners stand above the platter, mm (Horus' and FabScan's

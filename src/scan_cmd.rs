@@ -76,8 +76,6 @@ fn open_port(port: &str) -> Result<Box<dyn serialport::SerialPort>> {
 
 pub fn scan(args: &ScanArgs) -> Result<()> {
     let cfg = crate::sim_cmd::world_config(&args.world)?;
-    let method = if cfg.rig.projector.is_some() { Method::StructuredLight } else { Method::Laser };
-    let program = sim::scan::program(&cfg, method)?;
     let rig = match &args.rig {
         Some(p) => rig::Rig::read(p)?,
         None => {
@@ -87,6 +85,16 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
             }
             r
         }
+    };
+    // The capture program is the rig's: its projector's patterns (with the config's phase sets), else
+    // one frame per laser — the frames then decode against the rig recorded beside them.
+    let (method, program) = match &rig.projector {
+        Some(p) => (
+            Method::StructuredLight,
+            rig::patterns::structured_light_sequence(p.lens.width, p.lens.height, &cfg.scan.phase),
+        ),
+        None if !rig.lasers.is_empty() => (Method::Laser, rig::patterns::laser_sequence(rig.lasers.len())),
+        None => bail!("the rig has neither a projector nor lasers: nothing to scan with"),
     };
     let mut plan = acquire::Plan::full_turn(method, program.clone(), cfg.scan.views as usize);
     plan.seed = Some(args.world.seed);
@@ -121,7 +129,16 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
     };
     let mut camera: Box<dyn Camera> = match &args.camera {
         Some(dev) if dev.starts_with("/dev/video") => open_v4l2(&dev.display().to_string(), &rig)?,
-        Some(dir) if dir.as_os_str() != "sim" => Box::new(acquire::FolderCamera::open(dir)?),
+        Some(dir) if dir.as_os_str() != "sim" => {
+            let mut replay = acquire::FolderCamera::open(dir)?;
+            // A resumed session replays from the first frame of its first incomplete view.
+            if args.resume
+                && let Ok(m) = rig::Manifest::read(&args.out)
+            {
+                replay.skip(m.first_incomplete().unwrap_or(m.views.len()) * program.len());
+            }
+            Box::new(replay)
+        }
         _ => {
             let Some(b) = &board else {
                 bail!("the simulator camera needs the virtual turntable (leave out --port), or give --camera FOLDER");
@@ -145,7 +162,7 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
         program.len(),
         if board.is_some() { format!("the virtual turntable at {port}") } else { port.clone() },
         args.out.display(),
-        if args.resume { " (resuming)" } else { "" }
+        if args.resume { " (resuming; the platter is taken to be at its starting mark, 0°)" } else { "" }
     );
     let devices =
         acquire::Devices { turntable: &mut turntable, camera: camera.as_mut(), projector: projector.as_mut() };

@@ -255,8 +255,11 @@ impl<L: Link> HorusTurntable<L> {
 impl<L: Link> Turntable for HorusTurntable<L> {
     fn move_to(&mut self, angle_deg: f64) -> Result<(), TurntableError> {
         // The reply comes when the move is done: allow its duration, with margin, on top.
+        // Cruise plus ramps (speed / acceleration covers both ramps' extra time), with margin.
         let speed = self.feed.unwrap_or(1.0).max(1e-3);
-        let travel = Duration::from_secs_f64(((angle_deg - self.angle).abs() / speed * 1.5).min(3600.0));
+        let ramp = self.acceleration.unwrap_or(180.0).max(1e-3);
+        let seconds = (angle_deg - self.angle).abs() / speed + speed / ramp;
+        let travel = Duration::from_secs_f64((seconds * 1.5).min(3600.0));
         self.send(Command::MoveTo(angle_deg), self.opts.reply_timeout + travel)?;
         self.angle = angle_deg;
         Ok(())

@@ -175,6 +175,8 @@ impl PatternOutput for WindowProjector {
                 g * 0x0001_0101
             })
             .collect();
+        // A confirmation that came after an earlier show timed out belongs to that pattern.
+        while self.presented.try_recv().is_ok() {}
         self.proxy
             .send_event(Msg::Show(frame))
             .map_err(|_| CameraError::Unavailable("the projector window has closed".into()))?;

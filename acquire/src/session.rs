@@ -3,6 +3,11 @@
 //! rewrite the manifest atomically. A view counts only once its last frame is on disk and the
 //! manifest says so, so an interrupted session (Ctrl-C, an unplugged board) loses nothing completed,
 //! and `resume` continues from the first incomplete view.
+//!
+//! Angles are absolute from the platter's position when the board was greeted: the driver zeroes it
+//! then, as the reference host does. A Horus board has no homing switch, and after an unplug or a
+//! power cycle nothing knows where the platter stands, so a resumed session takes the platter to be
+//! back at the scan's starting mark.
 
 use crate::camera::{Camera, CameraError, PatternOutput, Shot};
 use crate::turntable::{Turntable, TurntableError};
@@ -144,11 +149,12 @@ pub fn run(
             )));
         }
         let same = old.method == fresh.method
+            && old.seed == fresh.seed
             && old.views.len() == total
             && old.views.iter().zip(&fresh.views).all(|(a, b)| a.frames == b.frames && a.angle_deg == b.angle_deg);
         if !same {
             return Err(SessionError::Folder(format!(
-                "{} holds a different scan (views, angles or frames differ): it cannot be resumed with this plan",
+                "{} holds a different scan (views, angles, frames or seed differ): it cannot be resumed with this plan",
                 out.display()
             )));
         }
@@ -207,6 +213,10 @@ pub fn run(
                 total,
                 error: Box::new(e),
             };
+            if matches!(frame.pattern, Pattern::LaserOff | Pattern::Laser { .. }) {
+                // Laser frames are taken with the projector dark.
+                projector.show(None).map_err(|e| cam_err(&manifest, e))?;
+            }
             let img = match frame.pattern {
                 Pattern::LaserOff => camera.capture(&shot),
                 Pattern::Laser { index } => {

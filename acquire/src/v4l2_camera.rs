@@ -116,7 +116,11 @@ impl V4l2Camera {
         let stride = (self.format.stride as usize).max(w);
         let frame_err = |m: String| CameraError::Frame(format!("{}: {m}", self.path));
         if self.format.fourcc == FourCC::new(b"MJPG") {
-            return rig::image::decode_jpeg(bytes).map_err(|e| frame_err(e.to_string()));
+            let img = rig::image::decode_jpeg(bytes).map_err(|e| frame_err(e.to_string()))?;
+            if (img.width as usize, img.height as usize) != (w, h) {
+                return Err(frame_err(format!("a {}x{} JPEG frame from a {w}x{h} stream", img.width, img.height)));
+            }
+            return Ok(img);
         }
         let yuyv = self.format.fourcc == FourCC::new(b"YUYV");
         let row_bytes = if yuyv { stride.max(2 * w) } else { stride };

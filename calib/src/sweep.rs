@@ -66,7 +66,9 @@ pub fn fit_sweep(
         let rel = (p.rotation * p0.rotation.inverse()).scaled_axis();
         let seen = rel.dot(&axis0.direction).to_degrees();
         let said = views[k].angle_deg - views[first].angle_deg;
-        if (seen - said).abs() > ANGLE_TOLERANCE_DEG {
+        // The pose's turn is within ±180°; recorded angles may cross 360°.
+        let off = (seen - said + 180.0).rem_euclid(360.0) - 180.0;
+        if off.abs() > ANGLE_TOLERANCE_DEG {
             return Err(CalibError::Degenerate(format!(
                 "view {k}: the board turned {seen:.1}° from view {first} but the recorded angles differ by {said:.1}° \
                  (a turntable turning the other way, or angles not matching the frames)"

@@ -125,7 +125,8 @@ pub fn view_accuracy(
     let (depth, part, lit, normal) = (read("depth.npy")?, read("part.npy")?, read("lit.npy")?, read("normal.npy")?);
     let w = camera.width as usize;
     let n = w * camera.height as usize;
-    if depth.len() != n || grid.points.len() != n || normal.len() != 3 * n {
+    let sizes_agree = [depth.len(), part.len(), lit.len(), grid.points.len(), grid.valid.len()].iter().all(|&l| l == n);
+    if !sizes_agree || normal.len() != 3 * n {
         let msg = format!("truth maps and range grid must both be {}x{}", camera.width, camera.height);
         return Err(rig::ParseError::new(rig::Location::File, rig::Problem::Invalid(msg)).with_path(dir));
     }

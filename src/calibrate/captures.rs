@@ -59,7 +59,15 @@ pub fn load(source: &Path, turn: Orientation) -> Result<Vec<Position>> {
 }
 
 fn from_manifest(dir: &Path) -> Result<Vec<Position>> {
-    let manifest = Manifest::read(dir)?;
+    let mut manifest = Manifest::read(dir)?;
+    // Board folders written before views could be marked `held` recorded hand-held poses at one
+    // angle; a sweep never repeats its angle, so such a folder is all held poses.
+    if manifest.method == rig::Method::Board
+        && manifest.views.len() > 1
+        && manifest.views.iter().all(|v| !v.held && v.angle_deg == manifest.views[0].angle_deg)
+    {
+        manifest.views.iter_mut().for_each(|v| v.held = true);
+    }
     let positions: Vec<Position> = manifest
         .views
         .iter()

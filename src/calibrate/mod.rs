@@ -69,7 +69,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
 
     let target = args.target;
     let wants = |t: CalibrateTarget| target == t || target == CalibrateTarget::All;
-    let base = [args.out.clone(), args.rig.clone().unwrap_or_default(), source.join("rig.toml")]
+    let base = [args.rig.clone().unwrap_or_default(), args.out.clone(), source.join("rig.toml")]
         .into_iter()
         .find(|p| p.is_file());
     let base = base.as_deref().map(Rig::read).transpose()?;
@@ -167,7 +167,7 @@ fn with_missed(e: anyhow::Error, missed: &[(PathBuf, String)]) -> anyhow::Error 
 /// `scanrig calibrate import camera.yml -o rig.toml`: an OpenCV YAML camera into a rig file.
 fn import(args: &CalibrateArgs, source: &Path) -> Result<()> {
     let camera = rig::opencv_yaml::read_camera(source)?;
-    let mut rig = match [args.out.clone(), args.rig.clone().unwrap_or_default()].into_iter().find(|p| p.is_file()) {
+    let mut rig = match [args.rig.clone().unwrap_or_default(), args.out.clone()].into_iter().find(|p| p.is_file()) {
         Some(p) => Rig::read(&p)?,
         None => camera_only("imported camera", camera),
     };

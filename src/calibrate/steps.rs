@@ -128,11 +128,25 @@ pub fn lasers(
                 .ok_or_else(|| anyhow!("{}: no board pose from its corners", f.position.lit.display()))?,
         };
         let lit = turn.read(&f.position.lit)?;
+        let same_size = |img: rig::image::Image8, path: &PathBuf| -> Result<rig::image::Image8> {
+            if (img.width, img.height) != (lit.width, lit.height) {
+                bail!(
+                    "{} is {}x{} but its lit frame {} is {}x{}",
+                    path.display(),
+                    img.width,
+                    img.height,
+                    f.position.lit.display(),
+                    lit.width,
+                    lit.height
+                );
+            }
+            Ok(img)
+        };
         let images: Vec<(usize, rig::image::Image8)> =
-            f.position.lasers.iter().map(|(i, p)| Ok((*i, turn.read(p)?))).collect::<Result<_>>()?;
+            f.position.lasers.iter().map(|(i, p)| Ok((*i, same_size(turn.read(p)?, p)?))).collect::<Result<_>>()?;
         // The background: the laser-off frame, or else the darker of the laser frames at each pixel.
         let off = match &f.position.laser_off {
-            Some(p) => turn.read(p)?,
+            Some(p) => same_size(turn.read(p)?, p)?,
             None => {
                 let mut off = images[0].1.clone();
                 for (_, img) in &images[1..] {
