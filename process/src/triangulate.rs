@@ -10,7 +10,7 @@
 
 use crate::projector_map::ProjectorMap;
 use rayon::prelude::*;
-use rig::math::{Isometry3, Point2, Point3, Real, Vector3};
+use rig::math::{Point2, Point3, Real, Vector3};
 use rig::{LaserPlane, PinholeCamera, Projector, RangeGrid, Sensor};
 use serde::Serialize;
 
@@ -38,6 +38,24 @@ pub fn ray_ray(a: &Point3, d: &Vector3, b: &Point3, e: &Vector3) -> Option<(Poin
     let t = (aa * ee - bb * dd) / denom;
     let (p, q) = (a + d * s, b + e * t);
     Some((Point3::from((p.coords + q.coords) / 2.0), (p - q).norm()))
+}
+
+/// [`ray_ray`] for a camera ray from the origin, specialised for the per-pixel loop: one division,
+/// and the gap compared squared. The midpoint, where the rays pass within `max_gap` and in front of
+/// the camera.
+#[inline]
+fn camera_ray_meets(d: &Vector3, b: &Point3, e: &Vector3, max_gap: Real) -> Option<Point3> {
+    let w0 = -b.coords;
+    let (aa, bb, cc, dd, ee) = (d.dot(d), d.dot(e), e.dot(e), d.dot(&w0), e.dot(&w0));
+    let denom = aa * cc - bb * bb;
+    if denom.abs() < 1e-12 * aa * cc {
+        return None;
+    }
+    let inv = 1.0 / denom;
+    let (s, t) = ((bb * ee - cc * dd) * inv, (aa * ee - bb * dd) * inv);
+    let (p, q) = (d * s, b.coords + e * t);
+    let mid = (p + q) * 0.5;
+    ((p - q).norm_squared() <= max_gap * max_gap && mid.z > 0.0).then_some(Point3::from(mid))
 }
 
 /// How the projector correspondences become points.
@@ -92,11 +110,12 @@ pub struct Triangulator {
     camera: PinholeCamera,
     projector: Projector,
     rays: Vec<Vector3>,
-    /// Undistorted normalised coordinates at projector pixel centres −1 ..= width, −1 ..= height.
-    table: Vec<Point2>,
+    /// The projector's ray direction (camera frame, z = 1 before rotation) at projector pixel centres
+    /// −1 ..= width, −1 ..= height: undistorted and rotated once here, since bilinear interpolation
+    /// commutes with the rotation.
+    table: Vec<Vector3>,
     table_w: usize,
-    /// Projector frame → camera frame, and the projector centre in the camera frame.
-    to_camera: Isometry3,
+    /// The projector centre in the camera frame.
     centre: Point3,
 }
 
@@ -112,16 +131,19 @@ impl Triangulator {
             })
             .collect();
         let (tw, th) = (projector.lens.width as usize + 2, projector.lens.height as usize + 2);
+        let to_camera = projector.from_camera.inverse();
         let table = (0..tw * th)
             .into_par_iter()
             .map(|i| {
                 let px = Point2::new((i % tw) as Real - 1.0, (i / tw) as Real - 1.0);
-                projector.lens.pixel_to_normalized(px).unwrap_or_else(|| Point2::new(Real::NAN, Real::NAN))
+                match projector.lens.pixel_to_normalized(px) {
+                    Some(n) => to_camera.rotation * Vector3::new(n.x, n.y, 1.0),
+                    None => Vector3::repeat(Real::NAN),
+                }
             })
             .collect();
-        let to_camera = projector.from_camera.inverse();
         let centre = to_camera * Point3::origin();
-        Triangulator { camera: *camera, projector: *projector, rays, table, table_w: tw, to_camera, centre }
+        Triangulator { camera: *camera, projector: *projector, rays, table, table_w: tw, centre }
     }
 
     /// The projector's ray through (u, v), in the camera frame: origin and (non-unit) direction.
@@ -138,22 +160,24 @@ impl Triangulator {
         let (fx, fy) = (x - x0, y - y0);
         let i = y0 as usize * self.table_w + x0 as usize;
         let t = &self.table;
-        let top = t[i].coords * (1.0 - fx) + t[i + 1].coords * fx;
-        let bottom = t[i + self.table_w].coords * (1.0 - fx) + t[i + self.table_w + 1].coords * fx;
-        let n = top * (1.0 - fy) + bottom * fy;
-        Some((self.centre, self.to_camera.rotation * Vector3::new(n.x, n.y, 1.0)))
+        let top = t[i] * (1.0 - fx) + t[i + 1] * fx;
+        let bottom = t[i + self.table_w] * (1.0 - fx) + t[i + self.table_w + 1] * fx;
+        Some((self.centre, top * (1.0 - fy) + bottom * fy))
     }
 
     fn triangulate_pixel(&self, map: &ProjectorMap, i: usize, params: &TriangulateParams) -> Option<Point3> {
-        let (u, v) = (map.u[i], map.v[i]);
-        let d = self.rays[i];
-        if !u.is_finite() || !d.x.is_finite() {
+        let u = map.u[i];
+        // Undecoded pixels (the larger part of a view) never touch the ray table.
+        if !u.is_finite() {
+            return None;
+        }
+        let (v, d) = (map.v[i], self.rays[i]);
+        if !d.x.is_finite() {
             return None;
         }
         if params.use_rows && v.is_finite() {
             let (o, e) = self.projector_ray(u, v)?;
-            let (p, gap) = ray_ray(&Point3::origin(), &d, &o, &e)?;
-            (gap <= params.max_ray_gap_mm && p.z > 0.0).then_some(p)
+            camera_ray_meets(&d, &o, &e, params.max_ray_gap_mm)
         } else {
             camera_ray_projector_column(&d, &self.projector, u)
         }
@@ -165,26 +189,23 @@ impl Triangulator {
     pub fn triangulate(&self, map: &ProjectorMap, params: &TriangulateParams) -> RangeGrid {
         let (w, h) = (map.width, map.height);
         assert_eq!((w, h), (self.camera.width as usize, self.camera.height as usize), "map and camera sizes differ");
-        let mut grid = RangeGrid::empty(w, h, Sensor::Center(Point3::origin()));
-        let mut confidence = vec![0.0f32; w * h];
-        // Written in place, row by row: no per-pixel intermediate to allocate and copy.
-        grid.points
-            .par_chunks_mut(w)
-            .zip(grid.valid.par_chunks_mut(w))
-            .zip(confidence.par_chunks_mut(w))
-            .enumerate()
-            .for_each(|(r, ((points, valid), conf))| {
-                for c in 0..w {
-                    let i = r * w + c;
-                    if let Some(p) = self.triangulate_pixel(map, i, params) {
-                        points[c] = p;
-                        valid[c] = true;
-                        conf[c] = map.confidence[i];
-                    }
-                }
-            });
-        grid.confidence = Some(confidence);
-        grid
+        // Every cell is written exactly once, straight into the grid's vectors: no NaN-filled grid
+        // first (31 MB of writes at 1280 × 1024, a tenth of the time).
+        let nan = Point3::new(Real::NAN, Real::NAN, Real::NAN);
+        let points: Vec<Point3> =
+            (0..w * h).into_par_iter().map(|i| self.triangulate_pixel(map, i, params).unwrap_or(nan)).collect();
+        let valid: Vec<bool> = points.par_iter().map(|p| p.x.is_finite()).collect();
+        let confidence: Vec<f32> =
+            valid.par_iter().zip(&map.confidence).map(|(&ok, &c)| if ok { c } else { 0.0 }).collect();
+        RangeGrid {
+            width: w,
+            height: h,
+            points,
+            valid,
+            normals: None,
+            confidence: Some(confidence),
+            sensor: Sensor::Center(Point3::origin()),
+        }
     }
 }
 
@@ -201,6 +222,7 @@ pub fn triangulate_map(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rig::math::Isometry3;
 
     #[test]
     fn ray_plane_intersection_reduces_to_eq_2_3_in_the_plane() {
