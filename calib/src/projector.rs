@@ -169,25 +169,47 @@ pub fn calibrate_projector(
     let rot = rig::math::UnitQuaternion::from_scaled_axis(mean_rot) * r0;
     let trans = rels.iter().fold(Vector3::zeros(), |a, r| a + r.translation.vector) / rels.len() as Real;
 
-    // Joint refinement: extrinsics (6), projector fx fy cx cy k1 k2 (6), then 6 per board pose.
+    // Joint refinement: extrinsics (6), the projector's free lens terms (fx, fy unless the aspect
+    // ratio is fixed, cx cy unless the principal point is, k1 k2), then 6 per board pose.
     let lens0 = own.camera;
-    let mut x0 = Vec::with_capacity(12 + 6 * kept.len());
+    let d0 = lens0.distortion.to_opencv();
+    let aspect = lens0.fy / lens0.fx;
+    let mut lens_free = vec![lens0.fx];
+    if !opts.fix_aspect_ratio {
+        lens_free.push(lens0.fy);
+    }
+    if !opts.fix_principal_point {
+        lens_free.extend([lens0.cx, lens0.cy]);
+    }
+    lens_free.extend([d0[0], d0[1]]);
+    let nl = lens_free.len();
+    let mut x0 = Vec::with_capacity(6 + nl + 6 * kept.len());
     x0.extend(rot.scaled_axis().iter());
     x0.extend(trans.iter());
-    let d0 = lens0.distortion.to_opencv();
-    x0.extend([lens0.fx, lens0.fy, lens0.cx, lens0.cy, d0[0], d0[1]]);
+    x0.extend(lens_free);
     for p in &cam_poses {
         x0.extend(p.rotation.scaled_axis().iter());
         x0.extend(p.translation.vector.iter());
     }
-    let lens_of = |x: &[Real]| PinholeCamera {
-        width,
-        height,
-        fx: x[6],
-        fy: x[7],
-        cx: x[8],
-        cy: x[9],
-        distortion: Distortion::from_opencv([x[10], x[11], d0[2], d0[3], d0[4]]),
+    let lens_of = |x: &[Real]| {
+        let mut l = x[6..6 + nl].iter().copied();
+        let fx = l.next().expect("fx");
+        let fy = if opts.fix_aspect_ratio { fx * aspect } else { l.next().expect("fy") };
+        let (cx, cy) = if opts.fix_principal_point {
+            (lens0.cx, lens0.cy)
+        } else {
+            (l.next().expect("cx"), l.next().expect("cy"))
+        };
+        let (k1, k2) = (l.next().expect("k1"), l.next().expect("k2"));
+        PinholeCamera {
+            width,
+            height,
+            fx,
+            fy,
+            cx,
+            cy,
+            distortion: Distortion::from_opencv([k1, k2, d0[2], d0[3], d0[4]]),
+        }
     };
     let ncam: usize = kept.iter().map(|(v, _)| v.object.len()).sum();
     let residuals = |x: &DVector<Real>| -> Vec<Real> {
@@ -196,7 +218,7 @@ pub fn calibrate_projector(
         let lens = lens_of(x);
         let mut r = Vec::with_capacity(2 * (ncam + used));
         for (k, (v, pv)) in kept.iter().enumerate() {
-            let pose = pose_from(&x[12 + 6 * k..18 + 6 * k]);
+            let pose = pose_from(&x[6 + nl + 6 * k..12 + nl + 6 * k]);
             for (o, c) in v.object.iter().zip(&v.camera) {
                 let p = camera.project(&(pose * o)).unwrap_or(Point2::new(1e6, 1e6));
                 r.extend([p.x - c.x, p.y - c.y]);

@@ -124,5 +124,12 @@ fn simulated_board_views_calibrate_camera_and_projector() {
     assert!((p.lens.fy / proj.lens.fy - 1.0).abs() <= 5e-3, "projector fy {}", p.lens.fy);
     assert!(rot <= 0.1, "extrinsic rotation {rot}° off");
     assert!(t_err <= 5e-3, "extrinsic translation {} % off", 100.0 * t_err);
+    // Fixed terms stay fixed through the joint refinement: the principal point at the image centre
+    // (where the simulated projector's is) and fy / fx at its first estimate.
+    let fixed = CameraOptions { fix_principal_point: true, fix_aspect_ratio: true, ..CameraOptions::default() };
+    let q = calibrate_projector(&c.camera, &stereo, proj.lens.width, proj.lens.height, fixed).unwrap();
+    let centre = ((proj.lens.width as f64 - 1.0) / 2.0, (proj.lens.height as f64 - 1.0) / 2.0);
+    assert_eq!((q.lens.cx, q.lens.cy), centre);
+    assert!((q.lens.fx / proj.lens.fx - 1.0).abs() <= 5e-3, "projector fx {} with fixed terms", q.lens.fx);
     std::fs::remove_dir_all(&dir).unwrap();
 }
