@@ -53,7 +53,7 @@ impl FolderCamera {
         let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
             .map_err(|e| CameraError::Unavailable(format!("{}: {e}", dir.display())))?
             .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| p.extension().is_some_and(|e| ["png", "jpg", "jpeg"].iter().any(|x| e.eq_ignore_ascii_case(x))))
+            .filter(|p| rig::image::is_image_file(p))
             .collect();
         files.sort();
         let first = files

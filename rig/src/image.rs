@@ -145,6 +145,11 @@ pub fn decode_jpeg(bytes: &[u8]) -> Result<Image8, ParseError> {
     Ok(Image8::gray(w, h, data))
 }
 
+/// Whether [`read_image`] reads `path` by its extension (PNG or JPEG, any case).
+pub fn is_image_file(path: &Path) -> bool {
+    path.extension().is_some_and(|e| ["png", "jpg", "jpeg"].iter().any(|x| e.eq_ignore_ascii_case(x)))
+}
+
 /// Reads a camera frame by its extension: PNG, or JPEG (`.jpg`, `.jpeg`) as grey.
 pub fn read_image(path: &Path) -> Result<Image8, Error> {
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
