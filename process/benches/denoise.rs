@@ -1,5 +1,6 @@
 //! Non-local denoising throughput: 640 × 480 range grids with N 7 × 7 and Sim 5 × 5, single frames and
-//! the ±1-frame temporal variant, against the bilateral filter in the same run.
+//! the ±1-frame temporal variant, against the bilateral filter in the same run; then the non-local
+//! filter with patches from 3 × 3 to 21 × 21, whose cost should not depend on the patch size.
 //!
 //! `cargo bench -p process --bench denoise` — medians of 5 runs.
 
@@ -84,4 +85,12 @@ fn main() {
     println!("non-local N7 O5: {:.3} s/grid = {:.1} grids/s", nl, 1.0 / nl);
     println!("bilateral N7:    {:.3} s/grid = {:.1} grids/s", bl, 1.0 / bl);
     println!("non-local ±1 frame: {:.3} s/grid = {:.1} grids/s", tv, 1.0 / tv);
+    // The patch similarity's cost should not grow with the patch (section 4.3.2's speed argument).
+    for half in [1usize, 2, 5, 10] {
+        let t = median_s(5, || {
+            let p = DenoiseParams { similarity: Similarity::NonLocal { half }, ..p };
+            std::hint::black_box(denoise(&grids[1], &p).unwrap());
+        });
+        println!("non-local N7 O{}: {:.3} s/grid", 2 * half + 1, t);
+    }
 }

@@ -2,6 +2,7 @@
 //! the points of its neighbourhood N(p_k) averages to μ_d, and the standard deviation of their offsets
 //! from the plane through p_k (normal d_k) averages to σ_s; then d = 0.75·μ_d and s = σ_s.
 
+use rayon::prelude::*;
 use rig::RangeGrid;
 use rig::math::{Real, Vector3};
 
@@ -13,32 +14,44 @@ pub fn estimate(grid: &RangeGrid, dirs: &[Vector3], half: usize, samples: usize,
     }
     let (w, h) = (grid.width as isize, grid.height as isize);
     let mut state = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
-    let (mut sum_max, mut sum_sd, mut n) = (0.0, 0.0, 0usize);
-    for _ in 0..samples {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        let i = valid[(state % valid.len() as u64) as usize];
-        let (c, r) = ((i as isize) % w, (i as isize) / w);
-        let (p, d) = (grid.points[i], dirs[i]);
-        let (mut max_dist, mut offsets) = (0.0f64, Vec::new());
-        for rr in (r - half as isize).max(0)..=(r + half as isize).min(h - 1) {
-            for cc in (c - half as isize).max(0)..=(c + half as isize).min(w - 1) {
-                let j = (rr * w + cc) as usize;
-                if grid.valid[j] && j != i {
-                    let q = grid.points[j];
-                    max_dist = max_dist.max((q - p).norm());
-                    offsets.push((q - p).dot(&d));
+    let picks: Vec<usize> = (0..samples)
+        .map(|_| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            valid[(state % valid.len() as u64) as usize]
+        })
+        .collect();
+    // Per sample: the largest neighbour distance and the standard deviation of the plane offsets, or
+    // `None` with fewer than 2 neighbours. Collected in order, then summed, so the result does not
+    // depend on the number of threads.
+    let per_sample: Vec<Option<(Real, Real)>> = picks
+        .par_iter()
+        .map(|&i| {
+            let (c, r) = ((i as isize) % w, (i as isize) / w);
+            let (p, d) = (grid.points[i], dirs[i]);
+            let (mut max_dist, mut sum, mut sum_sq, mut count) = (0.0f64, 0.0, 0.0, 0usize);
+            for rr in (r - half as isize).max(0)..=(r + half as isize).min(h - 1) {
+                for cc in (c - half as isize).max(0)..=(c + half as isize).min(w - 1) {
+                    let j = (rr * w + cc) as usize;
+                    if grid.valid[j] && j != i {
+                        let q = grid.points[j];
+                        max_dist = max_dist.max((q - p).norm());
+                        let o = (q - p).dot(&d);
+                        (sum, sum_sq, count) = (sum + o, sum_sq + o * o, count + 1);
+                    }
                 }
             }
-        }
-        if offsets.len() < 2 {
-            continue;
-        }
-        let mean = offsets.iter().sum::<Real>() / offsets.len() as Real;
-        let var = offsets.iter().map(|o| (o - mean).powi(2)).sum::<Real>() / offsets.len() as Real;
+            (count >= 2).then(|| {
+                let mean = sum / count as Real;
+                (max_dist, (sum_sq / count as Real - mean * mean).max(0.0).sqrt())
+            })
+        })
+        .collect();
+    let (mut sum_max, mut sum_sd, mut n) = (0.0, 0.0, 0usize);
+    for (max_dist, sd) in per_sample.into_iter().flatten() {
         sum_max += max_dist;
-        sum_sd += var.sqrt();
+        sum_sd += sd;
         n += 1;
     }
     if n == 0 {

@@ -2,11 +2,13 @@
 
 use super::bandwidth::estimate;
 use super::directions::directions;
-use super::patch::{PairTable, similarity};
+use super::patch::PatchSums;
+use super::planes::{Directions, Planes, valid_mean};
+use super::weights::{Bandwidths, Cells, Centre, accumulate_row};
 use super::{DenoiseError, DenoiseParams, DenoiseReport, Similarity};
 use rayon::prelude::*;
 use rig::RangeGrid;
-use rig::math::{Real, Vector3};
+use rig::math::{Point3, Real, Vector3};
 use std::time::Instant;
 
 /// Random samples for the automatic bandwidths.
@@ -15,6 +17,8 @@ const BANDWIDTH_SAMPLES: usize = 2000;
 /// One frame's part in a filtering pass: the grid, its bandwidths and its weight Ψ_dk·Ψ_sk.
 struct FrameTerm<'a> {
     grid: &'a RangeGrid,
+    /// Whether this is the frame being filtered.
+    current: bool,
     d: Real,
     s: Real,
     psi: Real,
@@ -37,13 +41,18 @@ fn adaptive_radius(grid: &RangeGrid, max: usize) -> Vec<usize> {
         .into_par_iter()
         .map(|i| {
             let (c, r) = (i % w, i / w);
-            let mut best = (0.0, max);
-            for rad in (1..=max).rev() {
+            let window = |rad: usize| {
                 let (c0, r0) = (c.saturating_sub(rad), r.saturating_sub(rad));
                 let (c1, r1) = ((c + rad + 1).min(w), (r + rad + 1).min(h));
-                let valid =
-                    sat[r1 * stride + c1] + sat[r0 * stride + c0] - sat[r0 * stride + c1] - sat[r1 * stride + c0];
-                let share = valid as Real / ((2 * rad + 1) * (2 * rad + 1)) as Real;
+                sat[r1 * stride + c1] + sat[r0 * stride + c0] - sat[r0 * stride + c1] - sat[r1 * stride + c0]
+            };
+            // Most cells: the whole largest window is valid.
+            if window(max) as usize == (2 * max + 1) * (2 * max + 1) {
+                return max;
+            }
+            let mut best = (0.0, max);
+            for rad in (1..=max).rev() {
+                let share = window(rad) as Real / ((2 * rad + 1) * (2 * rad + 1)) as Real;
                 if share > best.0 + 1e-12 {
                     best = (share, rad);
                 }
@@ -53,86 +62,143 @@ fn adaptive_radius(grid: &RangeGrid, max: usize) -> Vec<usize> {
         .collect()
 }
 
+/// A job of a pass: the pairs (x in the current frame, x + (dc, dr) in frame `frame`); with `back`, the
+/// pairs the other way round too (single frame, the opposite offset).
+struct Job {
+    frame: usize,
+    dc: isize,
+    dr: isize,
+    back: bool,
+}
+
+/// Rows per band. A pass works band by band, every job on one band before the next, so the band's rows
+/// of the planes and sums stay in cache across the jobs; bands run in parallel.
+const BAND: usize = 16;
+
+/// One band's sums: Σ w·h and Σ w of the centres, then of the centres taken the other way round, for
+/// grid rows `lo..hi` (the band and the rows its pairs reach).
+struct BandSums {
+    lo: usize,
+    hi: usize,
+    sums: [Vec<f32>; 4],
+}
+
 /// One pass of eq. 4.6 (eq. 4.3 when `frames` holds only the current one): the new positions of the
 /// current grid's cells.
-fn filter_pass(
-    current: &RangeGrid,
-    frames: &[FrameTerm<'_>],
-    dirs: &[Vector3],
-    params: &DenoiseParams,
-) -> Vec<rig::math::Point3> {
+fn filter_pass(current: &RangeGrid, frames: &[FrameTerm<'_>], dirs: &[Vector3], params: &DenoiseParams) -> Vec<Point3> {
     let (w, h) = (current.width, current.height);
     let n = w * h;
     let radius = if params.adaptive { adaptive_radius(current, params.window) } else { vec![params.window; n] };
+    let origin = valid_mean(current);
+    let planes: Vec<Planes> = frames.par_iter().map(|f| Planes::new(f.grid, &origin)).collect();
+    let directions = Directions::new(current, dirs, &radius);
     let r = params.window as isize;
-    let jobs: Vec<(usize, isize, isize)> =
-        (0..frames.len()).flat_map(|k| (-r..=r).flat_map(move |dr| (-r..=r).map(move |dc| (k, dc, dr)))).collect();
-    // Parallel over (frame, offset): each job adds its pairs' weights into per-thread sums.
-    let (num, den, _) = jobs
-        .par_iter()
-        .fold(
-            || (vec![0.0; n], vec![0.0; n], PairTable::default()),
-            |(mut num, mut den, mut table), &(k, dc, dr)| {
-                let f = &frames[k];
-                let non_local = matches!(params.similarity, Similarity::NonLocal { .. });
-                if non_local {
-                    table.fill(current, f.grid, dc, dr);
+    let mut jobs = Vec::new();
+    for (k, f) in frames.iter().enumerate() {
+        for dr in -r..=r {
+            for dc in -r..=r {
+                // On the current frame the pair at −δ is the pair at δ the other way round, and δ = 0
+                // pairs each point with itself (weight Ψ, height 0): added below.
+                let skip = f.current && (dr < 0 || (dr == 0 && dc <= 0));
+                if !skip {
+                    jobs.push(Job { frame: k, dc, dr, back: f.current });
                 }
-                let reach = dc.unsigned_abs().max(dr.unsigned_abs());
-                let (inv_d2, inv_s2) = (1.0 / (f.d * f.d), 1.0 / (f.s * f.s));
-                for row in 0..h {
-                    let jr = row as isize + dr;
-                    if !(0..h as isize).contains(&jr) {
-                        continue;
-                    }
-                    for col in 0..w {
-                        let i = row * w + col;
-                        let jc = col as isize + dc;
-                        if !current.valid[i] || radius[i] < reach || !(0..w as isize).contains(&jc) {
-                            continue;
-                        }
-                        let j = jr as usize * w + jc as usize;
-                        let d = dirs[i];
-                        if !f.grid.valid[j] || d.norm_squared() == 0.0 {
-                            continue;
-                        }
-                        let diff = current.points[i] - f.grid.points[j];
-                        let height = diff.dot(&d);
-                        // Eq. 4.4 writes Φ_s = exp(−Sim²/s²) with eq. 4.5's Sim a mean of squared heights;
-                        // as in NL-means (eq. 4.2) that is exp(−Sim/s²), the squared patch distance over s².
-                        let sim = match params.similarity {
-                            Similarity::NonLocal { half } => match similarity(&table.patch(col, row, half), &d) {
-                                Some(s) => s,
-                                None => continue,
-                            },
-                            Similarity::Bilateral => height * height,
-                        };
-                        // Φ_d·Φ_s as one exponential.
-                        let wgt = f.psi * (-(diff.norm_squared() * inv_d2 + sim * inv_s2)).exp();
-                        num[i] += wgt * height;
-                        den[i] += wgt;
-                    }
-                }
-                (num, den, table)
-            },
-        )
-        .reduce(
-            || (vec![0.0; n], vec![0.0; n], PairTable::default()),
-            |(mut a, mut b, t), (c, d, _)| {
-                a.iter_mut().zip(&c).for_each(|(x, y)| *x += y);
-                b.iter_mut().zip(&d).for_each(|(x, y)| *x += y);
-                (a, b, t)
-            },
-        );
-    (0..n)
-        .map(|i| {
-            if current.valid[i] && den[i] > 0.0 {
-                current.points[i] - dirs[i] * (num[i] / den[i])
-            } else {
-                current.points[i]
             }
+        }
+    }
+    let half = match params.similarity {
+        Similarity::NonLocal { half } => Some(half),
+        Similarity::Bilateral => None,
+    };
+    let cur = frames.iter().position(|f| f.current).expect("the current frame is among the terms");
+    let bands: Vec<BandSums> = (0..h)
+        .step_by(BAND)
+        .collect::<Vec<_>>()
+        .into_par_iter()
+        .map(|r0| {
+            let r1 = (r0 + BAND).min(h);
+            let (lo, hi) = (r0.saturating_sub(params.window), (r1 + params.window).min(h));
+            let mut band = BandSums { lo, hi, sums: std::array::from_fn(|_| vec![0.0; (hi - lo) * w]) };
+            let mut sums = half.map(|half| PatchSums::new(w, h, half));
+            for job in &jobs {
+                let f = &frames[job.frame];
+                let bw = Bandwidths {
+                    inv_d2: (1.0 / (f.d * f.d)) as f32,
+                    inv_s2: (1.0 / (f.s * f.s)) as f32,
+                    psi: f.psi as f32,
+                    reach: job.dc.unsigned_abs().max(job.dr.unsigned_abs()) as f32,
+                };
+                let (cur, other) = (&planes[cur], &planes[job.frame]);
+                run_job(job, cur, other, &directions, sums.as_mut(), bw, r0..r1, &mut band);
+            }
+            band
+        })
+        .collect();
+    // Bands are added in order, so the result does not depend on the number of threads.
+    let (mut num, mut den) = (vec![0.0f32; n], vec![0.0f32; n]);
+    for b in &bands {
+        let rows = b.lo * w..b.hi * w;
+        let [fnum, fden, bnum, bden] = &b.sums;
+        num[rows.clone()].iter_mut().zip(fnum).zip(bnum).for_each(|((t, a), c)| *t += a + c);
+        den[rows].iter_mut().zip(fden).zip(bden).for_each(|((t, a), c)| *t += a + c);
+    }
+    let psi_current = frames[cur].psi;
+    (0..n)
+        .into_par_iter()
+        .map(|i| {
+            if !current.valid[i] || directions.reach[i] < 0.0 {
+                return current.points[i];
+            }
+            current.points[i] - dirs[i] * (f64::from(num[i]) / (psi_current + f64::from(den[i])))
         })
         .collect()
+}
+
+/// Adds one job's pairs with centres in rows `rows` to `band`.
+#[allow(clippy::too_many_arguments)]
+fn run_job(
+    job: &Job,
+    cur: &Planes,
+    other: &Planes,
+    dirs: &Directions,
+    sums: Option<&mut PatchSums>,
+    bw: Bandwidths,
+    rows: std::ops::Range<usize>,
+    band: &mut BandSums,
+) {
+    let (w, h) = (cur.w, cur.h);
+    let (dc, dr) = (job.dc, job.dr);
+    let (c0, c1) = ((-dc).max(0) as usize, (w as isize - dc).min(w as isize).max(0) as usize);
+    if c0 >= c1 {
+        return;
+    }
+    let (j0, j1) = ((c0 as isize + dc) as usize, (c1 as isize + dc) as usize);
+    let lo = band.lo;
+    let [num, den, bnum, bden] = &mut band.sums;
+    fn cells(p: &Planes, r: usize, a: usize, b: usize) -> Cells<'_> {
+        let [x, y, z, m] = p.row(r, a, b);
+        Cells { x, y, z, m }
+    }
+    let mut row = |r: usize, patch: Option<&[f32]>| {
+        let jr = r as isize + dr;
+        if !(0..h as isize).contains(&jr) {
+            return;
+        }
+        let jr = jr as usize;
+        let (ri, rj) = ((r - lo) * w, (jr - lo) * w);
+        let [dx, dy, dz, reach] = dirs.row(w, r, c0, c1);
+        let centre = Centre { dx, dy, dz, reach, num: &mut num[ri + c0..ri + c1], den: &mut den[ri + c0..ri + c1] };
+        let back = job.back.then(|| {
+            let [dx, dy, dz, reach] = dirs.row(w, jr, j0, j1);
+            Centre { dx, dy, dz, reach, num: &mut bnum[rj + j0..rj + j1], den: &mut bden[rj + j0..rj + j1] }
+        });
+        let patch = patch.map(|b| std::array::from_fn(|k| &b[k * w + c0..k * w + c1]));
+        accumulate_row(centre, cells(cur, r, c0, c1), cells(other, jr, j0, j1), patch, back, bw);
+    };
+    match sums {
+        Some(sums) => sums.for_each_row(cur, other, (dc, dr), rows, |r, b| row(r, Some(b))),
+        None => rows.for_each(|r| row(r, None)),
+    }
 }
 
 fn check(grid: &RangeGrid) -> Result<(), DenoiseError> {
@@ -193,18 +259,20 @@ pub fn denoise_sequence(
         let wide = params.direction_frames.max(temporal);
         let dir_span = current.saturating_sub(wide)..=(current + wide).min(frames.len() - 1);
         let dirs = if span.len() > 1 {
+            let grids: Vec<&RangeGrid> = dir_span.map(|k| if k == current { &out } else { &frames[k] }).collect();
             let mut mean = out.clone();
-            for i in 0..mean.points.len() {
-                let valid: Vec<&RangeGrid> = dir_span
-                    .clone()
-                    .map(|k| if k == current { &out } else { &frames[k] })
-                    .filter(|g| g.valid[i])
-                    .collect();
-                if mean.valid[i] && valid.len() > 1 {
-                    let sum = valid.iter().fold(rig::math::Vector3::zeros(), |a, g| a + g.points[i].coords);
-                    mean.points[i] = rig::math::Point3::from(sum / valid.len() as Real);
+            mean.points.par_iter_mut().enumerate().for_each(|(i, p)| {
+                if !out.valid[i] {
+                    return;
                 }
-            }
+                let (sum, count) = grids
+                    .iter()
+                    .filter(|g| g.valid[i])
+                    .fold((Vector3::zeros(), 0usize), |(s, n), g| (s + g.points[i].coords, n + 1));
+                if count > 1 {
+                    *p = Point3::from(sum / count as Real);
+                }
+            });
             directions(&mean, params.direction, params.normal_window)
         } else {
             directions(&out, params.direction, params.normal_window)
@@ -222,6 +290,7 @@ pub fn denoise_sequence(
             .zip(&bw)
             .map(|(&k, &(d, s))| FrameTerm {
                 grid: if k == current { &out } else { &frames[k] },
+                current: k == current,
                 d,
                 s,
                 psi: 0.5f64.powi((k as i32 - current as i32).abs()) * (-(s * s) / (s_max * s_max)).exp(),
@@ -247,4 +316,108 @@ pub fn denoise_sequence(
     }
     report.seconds = start.elapsed().as_secs_f64();
     Ok((out, report))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::denoise::directions::least_squares_normals;
+    use rig::Sensor;
+
+    /// A wavy, noisy grid with holes, shifted a little per frame.
+    fn frame(seed: u64, shift: f64) -> RangeGrid {
+        let (w, h) = (41usize, 37usize);
+        let mut g = RangeGrid::empty(w, h, Sensor::Center(Point3::origin()));
+        let mut s = seed;
+        for i in 0..w * h {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let noise = ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.2;
+            let (c, r) = ((i % w) as f64 * 0.5, (i / w) as f64 * 0.5);
+            g.points[i] =
+                Point3::new(c - 10.0, r - 9.0, 300.0 + shift + 2.0 * (c * 0.4).sin() * (r * 0.3).cos() + noise);
+            g.valid[i] = i % 23 != 7 && !(10..14).contains(&(i % w)) || i / w > 30;
+        }
+        g
+    }
+
+    /// Eqs. 4.3–4.6 summed directly in double precision, pair by pair.
+    fn reference(frames: &[FrameTerm<'_>], dirs: &[Vector3], params: &DenoiseParams) -> Vec<Point3> {
+        let cur = frames.iter().find(|f| f.current).unwrap().grid;
+        let (w, h) = (cur.width as isize, cur.height as isize);
+        let radius =
+            if params.adaptive { adaptive_radius(cur, params.window) } else { vec![params.window; cur.points.len()] };
+        let at = |c: isize, r: isize| ((0..w).contains(&c) && (0..h).contains(&r)).then(|| (r * w + c) as usize);
+        (0..cur.points.len())
+            .map(|i| {
+                let (d, p) = (dirs[i], cur.points[i]);
+                if !cur.valid[i] || d.norm_squared() == 0.0 {
+                    return p;
+                }
+                let (c, r) = (i as isize % w, i as isize / w);
+                let reach = radius[i] as isize;
+                let (mut num, mut den) = (0.0, 0.0);
+                for f in frames {
+                    for dr in -reach..=reach {
+                        for dc in -reach..=reach {
+                            let Some(j) = at(c + dc, r + dr).filter(|&j| f.grid.valid[j]) else { continue };
+                            let diff = p - f.grid.points[j];
+                            let height = diff.dot(&d);
+                            let sim = match params.similarity {
+                                Similarity::Bilateral => height * height,
+                                Similarity::NonLocal { half } => {
+                                    let (hf, mut sum, mut n) = (half as isize, 0.0, 0.0);
+                                    for or in -hf..=hf {
+                                        for oc in -hf..=hf {
+                                            let a = at(c + oc, r + or).filter(|&a| cur.valid[a]);
+                                            let b = at(c + dc + oc, r + dr + or).filter(|&b| f.grid.valid[b]);
+                                            if let (Some(a), Some(b)) = (a, b) {
+                                                sum += ((cur.points[a] - f.grid.points[b]).dot(&d)).powi(2);
+                                                n += 1.0;
+                                            }
+                                        }
+                                    }
+                                    sum / n
+                                }
+                            };
+                            let wgt = f.psi * (-(diff.norm_squared() / (f.d * f.d) + sim / (f.s * f.s))).exp();
+                            num += wgt * height;
+                            den += wgt;
+                        }
+                    }
+                }
+                p - d * (num / den)
+            })
+            .collect()
+    }
+
+    /// The banded, symmetric, single-precision pass against the direct sums, for the non-local and the
+    /// bilateral filter, one frame and three.
+    #[test]
+    fn the_fast_pass_equals_the_direct_sums() {
+        let grids = [frame(1, -0.05), frame(2, 0.0), frame(3, 0.04)];
+        let dirs = least_squares_normals(&grids[1], 1);
+        for similarity in [Similarity::NonLocal { half: 2 }, Similarity::NonLocal { half: 1 }, Similarity::Bilateral] {
+            for (first, last) in [(1usize, 1usize), (0, 2)] {
+                let params = DenoiseParams { similarity, window: 3, ..Default::default() };
+                let terms: Vec<FrameTerm<'_>> = (first..=last)
+                    .map(|k| FrameTerm {
+                        grid: &grids[k],
+                        current: k == 1,
+                        d: 1.4 + 0.1 * k as Real,
+                        s: 0.12 + 0.02 * k as Real,
+                        psi: 0.5f64.powi((k as i32 - 1).abs()),
+                    })
+                    .collect();
+                let fast = filter_pass(&grids[1], &terms, &dirs, &params);
+                let slow = reference(&terms, &dirs, &params);
+                let (mut worst, mut moved): (Real, Real) = (0.0, 0.0);
+                for i in (0..fast.len()).filter(|&i| grids[1].valid[i]) {
+                    worst = worst.max((fast[i] - slow[i]).norm());
+                    moved = moved.max((slow[i] - grids[1].points[i]).norm());
+                }
+                assert!(moved > 0.05, "{similarity:?}, frames {first}..={last}: the filter moves points ({moved})");
+                assert!(worst < 1e-5, "{similarity:?}, frames {first}..={last}: off by {worst} mm");
+            }
+        }
+    }
 }

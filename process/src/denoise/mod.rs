@@ -8,13 +8,16 @@
 //! only the two points. Sequences add neighbours from nearby frames with frame weights Ψ (eq. 4.6).
 //!
 //! Parts: [`directions`] (least-squares normals or lines of sight), [`bandwidth`] (automatic d and s,
-//! section 4.3.2), [`patch`] (patch similarity by summed-area tables, so its cost does not depend on the
-//! patch size), [`filter`] (the weighted averages of eqs. 4.3 and 4.6).
+//! section 4.3.2), `patch` (patch similarity by streaming box sums, so its cost does not depend on the
+//! patch size), `weights` (eq. 4.4's weights, vectorised), `planes` (the single-precision layout they
+//! run on), [`filter`] (the weighted averages of eqs. 4.3 and 4.6).
 
 pub mod bandwidth;
 pub mod directions;
 pub mod filter;
-pub mod patch;
+mod patch;
+mod planes;
+mod weights;
 
 pub use filter::{denoise, denoise_sequence};
 
