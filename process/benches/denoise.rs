@@ -2,7 +2,7 @@
 //! the ±1-frame temporal variant, against the bilateral filter in the same run; then the non-local
 //! filter with patches from 3 × 3 to 21 × 21, whose cost should not depend on the patch size.
 //!
-//! `cargo bench -p process --bench denoise` — medians of 5 runs.
+//! `cargo bench -p process --bench denoise` — medians of 11 runs (5 for the patch sizes).
 
 use process::denoise::{DenoiseParams, Similarity, denoise, denoise_sequence};
 use rig::math::{Isometry3, Point3, Vector3};
@@ -68,13 +68,13 @@ fn main() {
     let p = DenoiseParams::default();
     let valid = grids[1].valid_count();
     println!("640x480 grid, {valid} valid cells; {} rayon threads", rayon::current_num_threads());
-    let nl = median_s(5, || {
+    let nl = median_s(11, || {
         std::hint::black_box(denoise(&grids[1], &p).unwrap());
     });
-    let bl = median_s(5, || {
+    let bl = median_s(11, || {
         std::hint::black_box(denoise(&grids[1], &DenoiseParams { similarity: Similarity::Bilateral, ..p }).unwrap());
     });
-    let tv = median_s(5, || {
+    let tv = median_s(11, || {
         std::hint::black_box(denoise_sequence(&grids, 1, 1, &p).unwrap());
     });
     let (_, r) = denoise(&grids[1], &p).unwrap();

@@ -7,8 +7,16 @@ use rig::RangeGrid;
 use rig::math::{Real, Vector3};
 
 /// (d, s) in mm from `samples` random valid points of the grid (seeded), neighbourhood half-size `half`.
-pub fn estimate(grid: &RangeGrid, dirs: &[Vector3], half: usize, samples: usize, seed: u64) -> (Real, Real) {
-    let valid: Vec<usize> = (0..grid.valid.len()).filter(|&i| grid.valid[i] && dirs[i].norm_squared() > 0.0).collect();
+/// `direction(i)` is cell i's displacement direction (zero where it has none; such samples are skipped),
+/// asked only at the samples, so a frame's directions need not all be computed for its bandwidths.
+pub fn estimate(
+    grid: &RangeGrid,
+    direction: impl Fn(usize) -> Vector3 + Sync,
+    half: usize,
+    samples: usize,
+    seed: u64,
+) -> (Real, Real) {
+    let valid: Vec<usize> = (0..grid.valid.len()).filter(|&i| grid.valid[i]).collect();
     if valid.is_empty() {
         return (1.0, 1.0);
     }
@@ -29,7 +37,10 @@ pub fn estimate(grid: &RangeGrid, dirs: &[Vector3], half: usize, samples: usize,
         .par_iter()
         .map(|&i| {
             let (c, r) = ((i as isize) % w, (i as isize) / w);
-            let (p, d) = (grid.points[i], dirs[i]);
+            let (p, d) = (grid.points[i], direction(i));
+            if d.norm_squared() == 0.0 {
+                return None;
+            }
             let (mut max_dist, mut sum, mut sum_sq, mut count) = (0.0f64, 0.0, 0.0, 0usize);
             for rr in (r - half as isize).max(0)..=(r + half as isize).min(h - 1) {
                 for cc in (c - half as isize).max(0)..=(c + half as isize).min(w - 1) {

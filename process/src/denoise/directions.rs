@@ -172,6 +172,33 @@ fn smallest_eigenvector_f32(a: [f32; 6]) -> [f32; 3] {
     }
 }
 
+/// The displacement direction of cell `i` alone (zero where it has none): for the few cells a
+/// bandwidth estimate samples. Normals as [`least_squares_normals`], in double precision.
+pub fn direction_at(grid: &RangeGrid, how: Direction, normal_half: usize, i: usize) -> Vector3 {
+    if !grid.valid[i] {
+        return Vector3::zeros();
+    }
+    let los = grid.line_of_sight(i).into_inner();
+    if how == Direction::LineOfSight {
+        return los;
+    }
+    let (w, h) = (grid.width, grid.height);
+    let (c, r) = (i % w, i / w);
+    let pts: Vec<Vector3> = (r.saturating_sub(normal_half)..=(r + normal_half).min(h - 1))
+        .flat_map(|rr| (c.saturating_sub(normal_half)..=(c + normal_half).min(w - 1)).map(move |cc| rr * w + cc))
+        .filter(|&j| grid.valid[j])
+        .map(|j| grid.points[j] - grid.points[i])
+        .collect();
+    if pts.len() < 3 {
+        return Vector3::zeros();
+    }
+    let mean = pts.iter().sum::<Vector3>() / pts.len() as f64;
+    let cov = pts.iter().fold(rig::math::Matrix3::zeros(), |a, d| a + (d - mean) * (d - mean).transpose());
+    let eig = cov.symmetric_eigen();
+    let n = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
+    if n.dot(&los) < 0.0 { -n } else { n }
+}
+
 /// The displacement direction of every cell.
 pub fn directions(grid: &RangeGrid, how: Direction, normal_half: usize) -> Vec<Vector3> {
     match how {
@@ -257,6 +284,8 @@ mod normal_tests {
                 let truth = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
                 let got = normals[i];
                 assert!(got.cross(&truth).norm() < 2e-5, "cell ({c}, {r}), half {half}: {got} vs {truth}");
+                let one = direction_at(&g, Direction::Normal, half, i);
+                assert!((one - got).norm() < 2e-5, "cell ({c}, {r}), half {half}: alone {one} vs {got}");
                 assert!(got.dot(&g.line_of_sight(i)) > 0.0, "faces the sensor");
                 checked += 1;
             }

@@ -1,7 +1,7 @@
 //! The weighted averages of eq. 4.3 (one frame) and eq. 4.6 (a sequence).
 
 use super::bandwidth::estimate;
-use super::directions::directions;
+use super::directions::{direction_at, directions};
 use super::patch::PatchSums;
 use super::planes::{Directions, Planes, valid_mean};
 use super::weights::{Bandwidths, Cells, Centre, accumulate_row};
@@ -73,7 +73,7 @@ struct Job {
 
 /// Rows per band. A pass works band by band, every job on one band before the next, so the band's rows
 /// of the planes and sums stay in cache across the jobs; bands run in parallel.
-const BAND: usize = 16;
+const BAND: usize = 32;
 
 /// One band's sums: Σ w·h and Σ w of the centres, then of the centres taken the other way round, for
 /// grid rows `lo..hi` (the band and the rows its pairs reach).
@@ -244,8 +244,9 @@ pub fn denoise_sequence(
         .map(|&k| {
             (k != current).then(|| {
                 params.bandwidth.unwrap_or_else(|| {
-                    let dirs = directions(&frames[k], params.direction, params.normal_window);
-                    estimate(&frames[k], &dirs, params.window, BANDWIDTH_SAMPLES, params.seed ^ k as u64)
+                    let g = &frames[k];
+                    let dir = |i| direction_at(g, params.direction, params.normal_window, i);
+                    estimate(g, dir, params.window, BANDWIDTH_SAMPLES, params.seed ^ k as u64)
                 })
             })
         })
@@ -279,9 +280,9 @@ pub fn denoise_sequence(
         };
         report.seconds_directions += t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let own = params
-            .bandwidth
-            .unwrap_or_else(|| estimate(&out, &dirs, params.window, BANDWIDTH_SAMPLES, params.seed ^ pass as u64));
+        let own = params.bandwidth.unwrap_or_else(|| {
+            estimate(&out, |i| dirs[i], params.window, BANDWIDTH_SAMPLES, params.seed ^ pass as u64)
+        });
         report.seconds_bandwidth += t.elapsed().as_secs_f64();
         let bw: Vec<(Real, Real)> = other_bw.iter().map(|b| b.unwrap_or(own)).collect();
         let s_max = bw.iter().map(|b| b.1).fold(0.0, Real::max);
