@@ -19,6 +19,28 @@ mod tests {
         use clap::CommandFactory;
         super::Args::command().debug_assert();
     }
+
+    #[test]
+    fn bandwidths_parse_or_say_what_is_wrong() {
+        assert_eq!(super::parse_bandwidth("0.5, 0.1"), Ok((0.5, 0.1)));
+        for bad in ["", "1", "1,2,3", "a,1", "0,1", "1,-2", "inf,1", "NaN,1"] {
+            assert!(super::parse_bandwidth(bad).is_err(), "{bad:?}");
+        }
+        // Any text: a pair of positive finite numbers or an error, never a panic.
+        let mut s = 7u64;
+        for _ in 0..20_000 {
+            let text: String = (0..(s % 12))
+                .map(|_| {
+                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    b"0123456789.,-e +x"[(s >> 33) as usize % 17] as char
+                })
+                .collect();
+            s = s.wrapping_add(1);
+            if let Ok((d, b)) = super::parse_bandwidth(&text) {
+                assert!(d > 0.0 && b > 0.0 && d.is_finite() && b.is_finite(), "{text:?}");
+            }
+        }
+    }
 }
 
 #[derive(Subcommand, Debug)]
@@ -463,12 +485,31 @@ pub struct DenoiseArgs {
     /// Keep N the same size near holes and borders.
     #[arg(long)]
     pub no_adaptive: bool,
+    /// Bandwidths d and s of eq. 4.4 in the file's units, as D,S (default: estimated per grid, d = 0.75 μd
+    /// and s = σs, section 4.3.2).
+    #[arg(long, value_parser = parse_bandwidth)]
+    pub bandwidth: Option<(f64, f64)>,
+    /// Keep cells without a valid neighbour (they cannot be filtered, and are mostly flying pixels, so
+    /// by default they are dropped).
+    #[arg(long)]
+    pub keep_isolated: bool,
     /// Sequences: use this many frames before and after each frame (eq. 4.6).
     #[arg(long, default_value_t = 0)]
     pub temporal: usize,
     /// Print the reports as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `D,S`: two positive numbers.
+fn parse_bandwidth(text: &str) -> Result<(f64, f64), String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let [d, s] = parts[..] else { return Err(format!("expected D,S (two numbers), got {text:?}")) };
+    let num = |x: &str| match x.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("{x:?} is not a positive number")),
+    };
+    Ok((num(d)?, num(s)?))
 }
 
 #[derive(clap::Args, Debug)]

@@ -22,6 +22,8 @@ pub fn run(args: &DenoiseArgs) -> Result<()> {
         direction: if args.direction == DirectionArg::Sight { Direction::LineOfSight } else { Direction::Normal },
         iterations: args.iterations.max(1),
         adaptive: !args.no_adaptive,
+        bandwidth: args.bandwidth,
+        drop_isolated: !args.keep_isolated,
         ..Default::default()
     };
     let grids = args.inputs.iter().map(|p| rig::ply::read_range_grid(p)).collect::<Result<Vec<_>, _>>()?;
@@ -43,10 +45,11 @@ pub fn run(args: &DenoiseArgs) -> Result<()> {
         }
         rig::ply::write_range_grid(&out, &clean, &opts)?;
         eprintln!(
-            "{} → {}: {} points, d {:.4} s {:.4}, RMS move {:.4} (file units), {:.2} s",
+            "{} → {}: {} points ({} lone ones dropped), d {:.4} s {:.4}, RMS move {:.4} (file units), {:.2} s",
             input.display(),
             out.display(),
             report.points,
+            report.isolated_dropped,
             report.d_mm[0],
             report.s_mm[0],
             report.rms_displacement_mm.last().copied().unwrap_or(0.0),

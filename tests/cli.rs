@@ -339,6 +339,30 @@ fn denoise_smooths_range_grids_singly_and_as_a_sequence() {
     // Bad sizes are refused with the reason.
     let o = scanrig(&[&"denoise", &inputs[0], &"--window", &"4", &"-o", &out]);
     assert!(stderr(&o).contains("--window must be an odd size of at least 3"), "{}", stderr(&o));
+    let o = scanrig(&[&"denoise", &inputs[0], &"--bandwidth", &"2", &"-o", &out]);
+    assert!(stderr(&o).contains("expected D,S"), "{}", stderr(&o));
+    // A lone cell (its 8 neighbours cut out) is dropped unless asked to keep it; bandwidths by hand.
+    let mut lone = noisy_plane(1);
+    let centre = 20 * 60 + 30;
+    for j in [centre - 61, centre - 60, centre - 59, centre - 1, centre + 1, centre + 59, centre + 60, centre + 61] {
+        lone.valid[j] = false;
+    }
+    let lone_in = d.path("lone.ply");
+    rig::ply::write_range_grid(&lone_in, &lone, &opts).unwrap();
+    for (keep, kept) in [(false, false), (true, true)] {
+        let mut a: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"denoise", &lone_in, &"-o", &out, &"--bandwidth", &"2,0.5"];
+        if keep {
+            a.push(&"--keep-isolated");
+        }
+        let o = scanrig(&a);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(
+            stderr(&o).contains(if keep { "(0 lone ones dropped)" } else { "(1 lone ones dropped)" }),
+            "{}",
+            stderr(&o)
+        );
+        assert_eq!(rig::ply::read_range_grid(&out).unwrap().valid[centre], kept);
+    }
 }
 
 #[test]

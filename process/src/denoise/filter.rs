@@ -201,6 +201,25 @@ fn run_job(
     }
 }
 
+/// Marks invalid the valid cells without a valid 8-neighbour; returns how many.
+fn drop_isolated(grid: &mut RangeGrid) -> usize {
+    let (w, h) = (grid.width, grid.height);
+    let lone: Vec<usize> = (0..w * h)
+        .filter(|&i| grid.valid[i])
+        .filter(|&i| {
+            let (c, r) = (i % w, i / w);
+            !(r.saturating_sub(1)..=(r + 1).min(h - 1))
+                .flat_map(|rr| (c.saturating_sub(1)..=(c + 1).min(w - 1)).map(move |cc| rr * w + cc))
+                .any(|j| j != i && grid.valid[j])
+        })
+        .collect();
+    for &i in &lone {
+        grid.valid[i] = false;
+        grid.points[i] = Point3::new(Real::NAN, Real::NAN, Real::NAN);
+    }
+    lone.len()
+}
+
 fn check(grid: &RangeGrid) -> Result<(), DenoiseError> {
     let v = grid.valid_count();
     if v < 16 { Err(DenoiseError::TooFewPoints(v)) } else { Ok(()) }
@@ -237,7 +256,8 @@ pub fn denoise_sequence(
     }
     let span: Vec<usize> = (current.saturating_sub(temporal)..=(current + temporal).min(frames.len() - 1)).collect();
     let mut out = cur.clone();
-    let mut report = DenoiseReport { points: cur.valid_count(), ..Default::default() };
+    let isolated_dropped = if params.drop_isolated { drop_isolated(&mut out) } else { 0 };
+    let mut report = DenoiseReport { points: out.valid_count(), isolated_dropped, ..Default::default() };
     // Bandwidths of the other frames do not change between passes: only the current frame moves.
     let other_bw: Vec<Option<(Real, Real)>> = span
         .iter()
@@ -324,6 +344,19 @@ mod tests {
     use super::*;
     use crate::denoise::directions::least_squares_normals;
     use rig::Sensor;
+
+    #[test]
+    fn lone_cells_are_dropped_and_counted() {
+        let mut g = RangeGrid::empty(6, 5, Sensor::Center(Point3::origin()));
+        for i in [0usize, 7, 8, 14, 29, 11] {
+            g.valid[i] = true;
+            g.points[i] = Point3::new(i as Real, 0.0, 100.0);
+        }
+        // 0 touches 7 diagonally and 7, 8, 14 touch each other; 11 and 29 (a corner) are alone.
+        assert_eq!(drop_isolated(&mut g), 2);
+        assert_eq!((0..30).filter(|&i| g.valid[i]).collect::<Vec<_>>(), vec![0, 7, 8, 14]);
+        assert!(g.points[11].x.is_nan() && g.points[29].x.is_nan());
+    }
 
     /// A wavy, noisy grid with holes, shifted a little per frame.
     fn frame(seed: u64, shift: f64) -> RangeGrid {
