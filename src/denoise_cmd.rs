@@ -45,7 +45,7 @@ pub fn run(args: &DenoiseArgs) -> Result<()> {
         }
         rig::ply::write_range_grid(&out, &clean, &opts)?;
         eprintln!(
-            "{} → {}: {} points ({} lone ones dropped), d {:.4} s {:.4}, RMS move {:.4} (file units), {:.2} s",
+            "{} → {}: {} points, lone cells dropped: {}, d {:.4} s {:.4}, RMS move {:.4} (file units), {:.2} s",
             input.display(),
             out.display(),
             report.points,

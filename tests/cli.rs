@@ -357,7 +357,7 @@ fn denoise_smooths_range_grids_singly_and_as_a_sequence() {
         let o = scanrig(&a);
         assert!(o.status.success(), "{}", stderr(&o));
         assert!(
-            stderr(&o).contains(if keep { "(0 lone ones dropped)" } else { "(1 lone ones dropped)" }),
+            stderr(&o).contains(if keep { "lone cells dropped: 0," } else { "lone cells dropped: 1," }),
             "{}",
             stderr(&o)
         );

@@ -253,10 +253,11 @@ fn median_rms(mut d: Vec<Real>) -> (Real, Real) {
 }
 
 /// The bunny scans' distances to bun_zipper (mm) after filtering each with `p` in its own grid, then
-/// placing it by bun.conf; with the number of lone cells dropped.
-fn bunny_distances(surface: &SurfaceDistance, p: &DenoiseParams) -> Option<(Vec<Real>, usize)> {
+/// placing it by bun.conf, and the raw distances of the same cells (lone cells dropped by the filter
+/// are in neither); with the number of lone cells dropped.
+fn bunny_distances(surface: &SurfaceDistance, p: &DenoiseParams) -> Option<(Vec<Real>, Vec<Real>, usize)> {
     let poses = fixtures::bunny_poses_mm()?;
-    let (mut d, mut dropped) = (Vec::new(), 0);
+    let (mut d, mut raw, mut dropped) = (Vec::new(), Vec::new(), 0);
     for name in fixtures::BUNNY_SCANS {
         let grid = rig::ply::read_range_grid(&fixtures::bunny_scan(name)?).unwrap();
         let (clean, report) = denoise(&grid, p).unwrap();
@@ -264,9 +265,10 @@ fn bunny_distances(surface: &SurfaceDistance, p: &DenoiseParams) -> Option<(Vec<
         let pose = poses[name];
         for i in (0..clean.points.len()).filter(|&i| clean.valid[i]) {
             d.push(surface.distance(&(pose * (clean.points[i] * 1000.0))));
+            raw.push(surface.distance(&(pose * (grid.points[i] * 1000.0))));
         }
     }
-    Some((d, dropped))
+    Some((d, raw, dropped))
 }
 
 /// The tuning sweep behind issue 7's bunny figures (`cargo test --release -p process --test denoise
@@ -304,7 +306,7 @@ fn bunny_sweep() {
             bandwidth,
             ..Default::default()
         };
-        let (d, _) = bunny_distances(&surface, &p).unwrap();
+        let (d, _, _) = bunny_distances(&surface, &p).unwrap();
         let (m, r) = median_rms(d);
         eprintln!(
             "N{} O{} ×{iterations} {bandwidth:?} {direction:?}: median {m:.4} mm ({:.3}×), RMS {r:.4} mm ({:.3}×)",
@@ -317,10 +319,13 @@ fn bunny_sweep() {
 }
 
 /// Issue 7, acceptance 4: each raw Stanford scan filtered on its own grid, then placed by bun.conf,
-/// moves toward bun_zipper by ≥ 20 % in median and RMS distance. The setting is the best of
-/// `bunny_sweep` (a plateau: d 1.0–1.5 mm and s 1–3 mm all give 0.796–0.797×): a 3 × 3 neighbourhood,
-/// two passes. With s that wide the similarity term is ~1 for every pair, so on this data the
-/// non-local weights add nothing over the distance term; the thesis's default setting is printed too.
+/// moves toward bun_zipper by ≥ 20 % in median and RMS distance against the raw figures (0.0643 and
+/// 0.2024 mm). The setting is the best of `bunny_sweep` (a plateau: d 1.0–1.5 mm and s 1–3 mm all give
+/// 0.796–0.797×): a 3 × 3 neighbourhood, two passes. With s that wide the similarity term is ~1 for
+/// every pair, so on this data the non-local weights add nothing over the distance term; the thesis's
+/// default setting is printed too. The RMS goal rests on the lone cells the filter drops (one of them
+/// 79 mm off): over the cells it keeps, the raw RMS is 0.154 mm and the filtered one 0.84× of that,
+/// which the test prints beside and checks only for improvement.
 #[test]
 fn stanford_bunny_scans_move_toward_the_zippered_surface() {
     let Some(zipper) = fixtures::data_file("stanford-bunny/reconstruction/bun_zipper.ply") else { return };
@@ -346,14 +351,16 @@ fn stanford_bunny_scans_move_toward_the_zippered_surface() {
     for (label, p) in
         [("thesis default (N7 O5, automatic d and s)", DenoiseParams::default()), ("best of the sweep", best)]
     {
-        let (d, dropped) = bunny_distances(&surface, &p).unwrap();
-        let (n, (fm, fr)) = (d.len(), median_rms(d));
+        let (d, kept_raw, dropped) = bunny_distances(&surface, &p).unwrap();
+        let (n, (fm, fr), (km, kr)) = (d.len(), median_rms(d), median_rms(kept_raw));
         eprintln!(
-            "bunny, {label}: {n} points ({dropped} lone ones dropped); raw median {rm:.4} mm RMS {rr:.4} mm; denoised median {fm:.4} mm ({:.3}×) RMS {fr:.4} mm ({:.3}×)",
+            "bunny, {label}: {n} points ({dropped} lone cells dropped); raw median {rm:.4} mm RMS {rr:.4} mm; denoised median {fm:.4} mm ({:.3}×) RMS {fr:.4} mm ({:.3}×); over the kept cells raw median {km:.4} RMS {kr:.4}: {:.3}× and {:.3}×",
             fm / rm,
-            fr / rr
+            fr / rr,
+            fm / km,
+            fr / kr
         );
-        assert!(fm < rm && fr < rr, "{label}: median ratio {} RMS ratio {}", fm / rm, fr / rr);
+        assert!(fm < km && fr < kr, "{label}: like for like, median ratio {} RMS ratio {}", fm / km, fr / kr);
         if p == best {
             assert!(fm <= 0.8 * rm && fr <= 0.8 * rr, "median ratio {} RMS ratio {}", fm / rm, fr / rr);
         }

@@ -177,6 +177,8 @@ fn bunny_scans_reconstruct_close_to_the_zipper_mesh() {
     // Measured: global 256³ 0.0617 mm, AdFFT 256³ 0.0520, AdFFT 512³ 0.0538 (screened Poisson at 256³:
     // 0.054). The bound on global leaves room for platform differences, not for a regression; AdFFT
     // at 512³ must beat global at 256³, and AdFFT at 256³ match screened Poisson (issue 9, acceptance 2).
+    // The global method is taken with its defaults: with AdFFT's area weights (16 neighbours, 0.25-cell
+    // low-pass) it reads 0.0533 at 256³, which AdFFT at 512³ does not beat (BENCHMARKS.md).
     for (_, t) in &means {
         assert!(t.is_closed_oriented_manifold() && t.components == 1, "{t:?}");
     }

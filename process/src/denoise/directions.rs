@@ -142,7 +142,9 @@ fn smallest_eigenvector_f32(a: [f32; 6]) -> [f32; 3] {
     let tr = xx + yy + zz;
     let minors = xx * yy - xy * xy + xx * zz - xz * xz + yy * zz - yz * yz;
     let det = xx * (yy * zz - yz * yz) - xy * (xy * zz - yz * xz) + xz * (xy * yz - yy * xz);
-    // On range grid windows (λ₁ ≪ λ₂) Newton converges quadratically; 8 steps leave it at rounding level.
+    // On range grid windows (λ₁ ≪ λ₂) Newton converges quadratically and 8 steps leave it at rounding
+    // level; near a double root (λ₁ ≈ λ₂, where the plane is barely defined) it converges linearly, and
+    // windows that still pass the test below can be off by ~1e-3 rad.
     let mut lambda = 0.0f32;
     for _ in 0..8 {
         let f = ((lambda - tr) * lambda + minors) * lambda - det;
@@ -173,7 +175,7 @@ fn smallest_eigenvector_f32(a: [f32; 6]) -> [f32; 3] {
 }
 
 /// The displacement direction of cell `i` alone (zero where it has none): for the few cells a
-/// bandwidth estimate samples. Normals as [`least_squares_normals`], in double precision.
+/// bandwidth estimate samples. Normals as [`least_squares_normals`].
 pub fn direction_at(grid: &RangeGrid, how: Direction, normal_half: usize, i: usize) -> Vector3 {
     if !grid.valid[i] {
         return Vector3::zeros();
@@ -193,9 +195,16 @@ pub fn direction_at(grid: &RangeGrid, how: Direction, normal_half: usize, i: usi
         return Vector3::zeros();
     }
     let mean = pts.iter().sum::<Vector3>() / pts.len() as f64;
-    let cov = pts.iter().fold(rig::math::Matrix3::zeros(), |a, d| a + (d - mean) * (d - mean).transpose());
-    let eig = cov.symmetric_eigen();
-    let n = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
+    let cov = pts.iter().fold([0.0; 6], |mut a, d| {
+        let e = d - mean;
+        for (k, v) in [e.x * e.x, e.x * e.y, e.x * e.z, e.y * e.y, e.y * e.z, e.z * e.z].into_iter().enumerate() {
+            a[k] += v;
+        }
+        a
+    });
+    // The same eigenvector, and the same test for a window without a plane, as the whole grid's.
+    let [x, y, z] = smallest_eigenvector_f32(cov.map(|v| v as f32));
+    let n = Vector3::new(f64::from(x), f64::from(y), f64::from(z));
     if n.dot(&los) < 0.0 { -n } else { n }
 }
 
