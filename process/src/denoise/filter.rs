@@ -201,10 +201,11 @@ fn run_job(
     }
 }
 
-/// Marks invalid the valid cells without a valid 8-neighbour; returns how many.
-fn drop_isolated(grid: &mut RangeGrid) -> usize {
+/// The valid cells without a valid 8-neighbour.
+fn lone_cells(grid: &RangeGrid) -> Vec<usize> {
     let (w, h) = (grid.width, grid.height);
-    let lone: Vec<usize> = (0..w * h)
+    (0..w * h)
+        .into_par_iter()
         .filter(|&i| grid.valid[i])
         .filter(|&i| {
             let (c, r) = (i % w, i / w);
@@ -212,7 +213,12 @@ fn drop_isolated(grid: &mut RangeGrid) -> usize {
                 .flat_map(|rr| (c.saturating_sub(1)..=(c + 1).min(w - 1)).map(move |cc| rr * w + cc))
                 .any(|j| j != i && grid.valid[j])
         })
-        .collect();
+        .collect()
+}
+
+/// Marks invalid the valid cells without a valid 8-neighbour; returns how many.
+fn drop_isolated(grid: &mut RangeGrid) -> usize {
+    let lone = lone_cells(grid);
     for &i in &lone {
         grid.valid[i] = false;
         grid.points[i] = Point3::new(Real::NAN, Real::NAN, Real::NAN);
@@ -261,7 +267,9 @@ pub fn denoise_sequence(
     // would otherwise spoil the frame mean the directions come from, and serve as a neighbour.
     let others: Vec<Option<RangeGrid>> = (0..frames.len())
         .map(|k| {
-            (k != current && params.drop_isolated && dir_span.contains(&k)).then(|| {
+            // Copied only where there is something to drop.
+            let wanted = k != current && params.drop_isolated && dir_span.contains(&k);
+            (wanted && !lone_cells(&frames[k]).is_empty()).then(|| {
                 let mut g = frames[k].clone();
                 drop_isolated(&mut g);
                 g
