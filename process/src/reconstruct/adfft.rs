@@ -50,9 +50,11 @@ pub struct AdFftParams {
     pub min_points: Real,
     /// Margin of the bounding cube, as for the global method.
     pub padding: Real,
-    /// Gaussian low-pass, in grid cells. On the bunny at 256³ (area_k 16, quadratic levels) 0.5 gave a
-    /// mean of accuracy and completeness of 0.0579 mm, 0.25 gave 0.0535; less smoothing hardly helps
-    /// the global method further (0.0593 at 0.1, 0.0592 at 0).
+    /// Gaussian low-pass, in grid cells. On the bunny at 256³ with quadratic levels, 0.5 cells and 8
+    /// area neighbours gave a mean of accuracy and completeness of 0.0579 mm, 0.25 cells and 16
+    /// neighbours 0.0535 (before the ridge was lightened); with affine levels and 8 neighbours, 0.5 →
+    /// 0.25 cells went 0.0667 → 0.0621. Less smoothing hardly helps the global method further (0.0595
+    /// at 0.25, 0.0593 at 0.1, 0.0592 at 0).
     pub smoothing_cells: Real,
     /// Neighbours for the area weights. More neighbours give smoother weights, and the weights' noise
     /// is noise in the splatted normal field: on the bunny at 256³, AdFFT went from 0.0621 (8) to
