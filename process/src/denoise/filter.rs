@@ -219,11 +219,16 @@ fn lone_cells(grid: &RangeGrid) -> Vec<usize> {
 /// Marks invalid the valid cells without a valid 8-neighbour; returns how many.
 fn drop_isolated(grid: &mut RangeGrid) -> usize {
     let lone = lone_cells(grid);
-    for &i in &lone {
+    invalidate(grid, &lone);
+    lone.len()
+}
+
+/// Marks `cells` invalid (NaN positions, as `RangeGrid::empty` has them).
+fn invalidate(grid: &mut RangeGrid, cells: &[usize]) {
+    for &i in cells {
         grid.valid[i] = false;
         grid.points[i] = Point3::new(Real::NAN, Real::NAN, Real::NAN);
     }
-    lone.len()
 }
 
 fn check(grid: &RangeGrid) -> Result<(), DenoiseError> {
@@ -269,9 +274,10 @@ pub fn denoise_sequence(
         .map(|k| {
             // Copied only where there is something to drop.
             let wanted = k != current && params.drop_isolated && dir_span.contains(&k);
-            (wanted && !lone_cells(&frames[k]).is_empty()).then(|| {
+            let lone = if wanted { lone_cells(&frames[k]) } else { Vec::new() };
+            (!lone.is_empty()).then(|| {
                 let mut g = frames[k].clone();
-                drop_isolated(&mut g);
+                invalidate(&mut g, &lone);
                 g
             })
         })
