@@ -51,8 +51,8 @@ fn main() {
     println!(
         "{} points, bandwidths d {:.3} mm s {:.3} mm: RMS to truth raw {:.4} mm, bilateral {:.4} mm, non-local {:.4} mm ({:.2} s)",
         report.points,
-        report.d_mm[0],
-        report.s_mm[0],
+        report.d[0],
+        report.s[0],
         rms(&noisy),
         rms(&bilateral),
         rms(&non_local),

@@ -12,6 +12,15 @@ fn half(size: usize, what: &str) -> Result<usize> {
     Ok(size / 2)
 }
 
+/// Four significant digits, so lengths read the same in metres and in millimetres.
+fn significant(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let decimals = (3 - x.abs().log10().floor() as i32).clamp(0, 12) as usize;
+    format!("{x:.decimals$}")
+}
+
 pub fn run(args: &DenoiseArgs) -> Result<()> {
     let params = DenoiseParams {
         window: half(args.window, "window")?,
@@ -40,19 +49,21 @@ pub fn run(args: &DenoiseArgs) -> Result<()> {
         }
         let out = if single { args.out.clone() } else { args.out.join(input.file_name().unwrap_or_default()) };
         let mut opts = rig::ply::WriteOptions::default();
-        if let Some(u) = rig::ply::read_header(input)?.units() {
-            opts = opts.with_units(&u);
+        let units = rig::ply::read_header(input)?.units();
+        if let Some(u) = &units {
+            opts = opts.with_units(u);
         }
         rig::ply::write_range_grid(&out, &clean, &opts)?;
+        let unit = units.unwrap_or_else(|| "file units".into());
         eprintln!(
-            "{} → {}: {} points, lone cells dropped: {}, d {:.4} s {:.4}, RMS move {:.4} (file units), {:.2} s",
+            "{} → {}: {} points, lone cells dropped: {}, d {} s {} {unit}, RMS move {} {unit}, {:.2} s",
             input.display(),
             out.display(),
             report.points,
             report.isolated_dropped,
-            report.d_mm[0],
-            report.s_mm[0],
-            report.rms_displacement_mm.last().copied().unwrap_or(0.0),
+            significant(report.d[0]),
+            significant(report.s[0]),
+            significant(report.rms_displacement.last().copied().unwrap_or(0.0)),
             report.seconds
         );
         reports.push(serde_json::json!({ "input": input, "output": out, "report": report }));
@@ -63,4 +74,16 @@ pub fn run(args: &DenoiseArgs) -> Result<()> {
         writeln!(o)?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn lengths_keep_four_significant_digits() {
+        assert_eq!(super::significant(0.001_234_56), "0.001235");
+        assert_eq!(super::significant(5.6e-5), "0.00005600");
+        assert_eq!(super::significant(1.5), "1.500");
+        assert_eq!(super::significant(1234.5), "1234");
+        assert_eq!(super::significant(0.0), "0");
+    }
 }

@@ -335,6 +335,7 @@ fn denoise_smooths_range_grids_singly_and_as_a_sequence() {
     assert!(o.status.success(), "{}", stderr(&o));
     let reports: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(reports.as_array().unwrap().len(), 3);
+    assert!(reports[0]["report"]["d"][0].as_f64().is_some_and(|d| d > 0.0), "{reports}");
     assert!(folder.join("frame2.ply").is_file());
     // Bad sizes are refused with the reason.
     let o = scanrig(&[&"denoise", &inputs[0], &"--window", &"4", &"-o", &out]);
@@ -362,6 +363,8 @@ fn denoise_smooths_range_grids_singly_and_as_a_sequence() {
             stderr(&o)
         );
         assert_eq!(rig::ply::read_range_grid(&out).unwrap().valid[centre], kept);
+        // The bandwidths given, in the file's units, to four significant digits.
+        assert!(stderr(&o).contains("d 2.000 s 0.5000 mm"), "{}", stderr(&o));
     }
 }
 

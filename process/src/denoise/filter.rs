@@ -356,9 +356,9 @@ pub fn denoise_sequence(
             .map(|((m, p), _)| (m - p).norm_squared())
             .sum();
         out.points = moved;
-        report.d_mm.push(own.0);
-        report.s_mm.push(own.1);
-        report.rms_displacement_mm.push((sq / report.points as Real).sqrt());
+        report.d.push(own.0);
+        report.s.push(own.1);
+        report.rms_displacement.push((sq / report.points as Real).sqrt());
     }
     if out.normals.is_some() {
         out.normals = Some(super::directions::least_squares_normals(&out, params.normal_window));

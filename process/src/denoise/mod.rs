@@ -61,7 +61,7 @@ pub struct DenoiseParams {
     pub iterations: usize,
     /// Shrink N stepwise near holes and borders (section 4.3.2).
     pub adaptive: bool,
-    /// Bandwidths (d, s) in mm; `None` estimates them from random samples.
+    /// Bandwidths (d, s) in the grid's units; `None` estimates them from random samples.
     pub bandwidth: Option<(Real, Real)>,
     /// Half-size of the least-squares window for normals (1 gives 3 × 3).
     pub normal_window: usize,
@@ -102,12 +102,13 @@ pub struct DenoiseReport {
     pub points: usize,
     /// Lone cells dropped before filtering (see [`DenoiseParams::drop_isolated`]).
     pub isolated_dropped: usize,
-    /// Distance bandwidth d of each pass (mm).
-    pub d_mm: Vec<Real>,
-    /// Similarity bandwidth s of each pass (mm).
-    pub s_mm: Vec<Real>,
-    /// RMS displacement of each pass (mm).
-    pub rms_displacement_mm: Vec<Real>,
+    /// Distance bandwidth d of each pass, in the grid's units (mm for scanrig's own grids, metres
+    /// for the Stanford scans).
+    pub d: Vec<Real>,
+    /// Similarity bandwidth s of each pass, in the grid's units.
+    pub s: Vec<Real>,
+    /// RMS displacement of each pass, in the grid's units.
+    pub rms_displacement: Vec<Real>,
     /// Seconds spent on displacement directions (normals), over all passes.
     pub seconds_directions: Real,
     /// Seconds spent estimating bandwidths.
