@@ -73,10 +73,10 @@ impl MeshDistance {
         MeshDistance { tris, cell, cells, lo, hi }
     }
 
-    /// The distance from `p` to the mesh (infinite for an empty mesh). Searches rings of grid cells
-    /// outward until the nearest triangle found is closer than the unsearched cells can be; far from
-    /// the mesh, where the rings would hold more cells than there are triangles, it checks every
-    /// triangle instead.
+    /// The distance from `p` to the mesh (infinite for an empty mesh or a non-finite `p`). Searches
+    /// rings of grid cells outward until the nearest triangle found is closer than the unsearched cells
+    /// can be; far from the mesh, where the rings would hold more cells than there are triangles, it
+    /// checks every triangle instead.
     pub fn distance(&self, p: &Point3) -> Real {
         self.distance_up_to(p, Real::INFINITY)
     }
@@ -87,12 +87,18 @@ impl MeshDistance {
         self.nearest_up_to(p, limit).map_or(Real::INFINITY, |(d, _)| d)
     }
 
-    /// The nearest triangle (index into the mesh's faces) and its distance; `None` for an empty mesh.
+    /// The nearest triangle (index into the mesh's faces) and its distance; `None` for an empty mesh
+    /// or a point with a non-finite coordinate (such as an invalid range-grid cell's NaN).
     pub fn nearest(&self, p: &Point3) -> Option<(Real, usize)> {
         self.nearest_up_to(p, Real::INFINITY)
     }
 
     fn nearest_up_to(&self, p: &Point3, limit: Real) -> Option<(Real, usize)> {
+        // A NaN compares false with every bound, so the ring search would end up checking every
+        // triangle, for nothing.
+        if !p.coords.iter().all(|c| c.is_finite()) {
+            return None;
+        }
         let mut best: Option<(Real, usize)> = None;
         let consider = |t: usize, best: &mut Option<(Real, usize)>| {
             let [a, b, c] = &self.tris[t];
@@ -163,5 +169,8 @@ mod tests {
         assert!((d.distance(&Point3::new(2.0, 0.5, 0.0)) - 1.0).abs() < 1e-12);
         // Far away: the ring search still finds the corner.
         assert!((d.distance(&Point3::new(-30.0, -40.0, 0.0)) - 50.0).abs() < 1e-9);
+        // No answer for a point that is not one.
+        assert_eq!(d.nearest(&Point3::new(f64::NAN, 0.0, 0.0)), None);
+        assert_eq!(d.distance(&Point3::new(0.0, f64::INFINITY, 0.0)), Real::INFINITY);
     }
 }
