@@ -373,10 +373,11 @@ fn bunny_offsets_smoothed_with_the_surface_known() {
 /// Issue 7, acceptance 4: each raw Stanford scan filtered on its own grid, then placed by bun.conf,
 /// moves toward bun_zipper by ≥ 20 % in median and RMS distance against the raw figures (0.0643 and
 /// 0.2024 mm). The setting is the best of `bunny_sweep`: a 3 × 3 neighbourhood and patch, two passes,
-/// d 1.2 mm, s 1 mm. It sits on a plateau (d 1.0–1.5 mm and s 1–3 mm all give 0.796–0.797×). At
-/// s = 1 mm the similarity term changes the displacements by 8 % but not the figures: it only stops
-/// averaging between patches whose heights differ by a millimetre or so, and a tighter s (0.3 mm:
-/// 0.802×; the automatic one, ~0.05 mm: 0.885×) makes the median worse on these scans. The thesis's default setting is printed too.
+/// d 1.2 mm, s 1 mm. It sits on a plateau (the sweep's d 1.2 and 1.5 mm with s from 1 mm to off all
+/// give 0.796×). At s = 1 mm the similarity term changes the displacements by 8 % but not the
+/// figures: it only stops averaging between patches whose heights differ by a millimetre or so, and a
+/// tighter s (0.3 mm: 0.802×; the automatic one, ~0.05 mm: 0.885×) makes the median worse on these
+/// scans. The thesis's default setting is printed too.
 ///
 /// Why no setting reaches much below 0.80× in median: a smoother that knew the surface
 /// (`bunny_offsets_smoothed_with_the_surface_known`) would leave 0.82× over 3 × 3 cells, 0.73× over 7 × 7
