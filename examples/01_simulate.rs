@@ -8,9 +8,7 @@ use sim::{Albedo, Scene, SimConfig};
 
 fn main() {
     // The built-in desktop rig at its 640 × 480 readout, and the vase standing on the platter.
-    let cfg = SimConfig::read(std::path::Path::new("configs/sim-structured-light.toml"))
-        .expect("run from the repository root")
-        .with_camera_resolution(640, 480);
+    let cfg = SimConfig::builtin("structured-light").expect("a built-in config").with_camera_resolution(640, 480);
     let vase = sim::fluted_vase(120.0);
     let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(0.8));
 

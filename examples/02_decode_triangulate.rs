@@ -9,9 +9,7 @@ use rig::{Method, Pattern};
 use sim::{Albedo, Scene, SimConfig};
 
 fn main() {
-    let cfg = SimConfig::read(std::path::Path::new("configs/sim-structured-light.toml"))
-        .expect("run from the repository root")
-        .with_camera_resolution(640, 480);
+    let cfg = SimConfig::builtin("structured-light").expect("a built-in config").with_camera_resolution(640, 480);
     let vase = sim::fluted_vase(120.0);
     let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(0.8));
     let view = sim::scan::simulate_view(&cfg, &scene, Method::StructuredLight, 0.0, 7, 0).unwrap();

@@ -9,9 +9,7 @@ use rig::{RangeGrid, Sensor};
 use sim::{Albedo, Mount, Part, PartKind, Scene, SimConfig};
 
 fn main() {
-    let cfg = SimConfig::read(std::path::Path::new("configs/sim-structured-light.toml"))
-        .expect("run from the repository root")
-        .with_camera_resolution(640, 480);
+    let cfg = SimConfig::builtin("structured-light").expect("a built-in config").with_camera_resolution(640, 480);
     // The vase held in front of the camera, seen exactly (truth), then with noise along the normals.
     let vase = sim::fluted_vase(120.0);
     let pose = Isometry3::new(rig::Vector3::new(0.0, 60.0, 380.0), rig::Vector3::new(-1.9, 0.0, 0.0));
@@ -29,11 +27,10 @@ fn main() {
         &Isometry3::identity(),
     );
     let mut noisy = RangeGrid::empty(g.width, g.height, Sensor::Center(Point3::origin()));
-    let mut seed = 12345u64;
+    let mut rng = fixtures::Lcg::new(12345);
     for i in 0..g.kind.len() {
         if g.kind[i] != 0 {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            let u = (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5;
+            let u = rng.uniform() - 0.5;
             noisy.points[i] = g.point[i] + g.normal[i] * (0.8 * u);
             noisy.valid[i] = true;
         }

@@ -1,6 +1,7 @@
 //! The command-line grammar (clap derive). Each subcommand's arguments are a plain struct its module
 //! turns into library calls.
 
+use crate::stage_args::{CropOpts, DecodeOpts, DenoiseOpts, FuseOpts, ReconstructOpts, RemeshOpts};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
@@ -8,6 +9,9 @@ use std::path::PathBuf;
 #[derive(Parser, Debug)]
 #[command(name = "scanrig", version, about, long_about = None)]
 pub struct Args {
+    /// No progress on stderr (errors and warnings still go there).
+    #[arg(long, short, global = true)]
+    pub quiet: bool,
     #[command(subcommand)]
     pub command: Command,
 }
@@ -19,28 +23,6 @@ mod tests {
         use clap::CommandFactory;
         super::Args::command().debug_assert();
     }
-
-    #[test]
-    fn bandwidths_parse_or_say_what_is_wrong() {
-        assert_eq!(super::parse_bandwidth("0.5, 0.1"), Ok((0.5, 0.1)));
-        for bad in ["", "1", "1,2,3", "a,1", "0,1", "1,-2", "inf,1", "NaN,1"] {
-            assert!(super::parse_bandwidth(bad).is_err(), "{bad:?}");
-        }
-        // Any text: a pair of positive finite numbers or an error, never a panic.
-        let mut s = 7u64;
-        for _ in 0..20_000 {
-            let text: String = (0..(s % 12))
-                .map(|_| {
-                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                    b"0123456789.,-e +x"[(s >> 33) as usize % 17] as char
-                })
-                .collect();
-            s = s.wrapping_add(1);
-            if let Ok((d, b)) = super::parse_bandwidth(&text) {
-                assert!(d > 0.0 && b > 0.0 && d.is_finite() && b.is_finite(), "{text:?}");
-            }
-        }
-    }
 }
 
 #[derive(Subcommand, Debug)]
@@ -49,7 +31,8 @@ pub enum Command {
     Info(InfoArgs),
     /// Convert a mesh or point cloud between PLY (binary or ASCII) and OBJ.
     Convert(ConvertArgs),
-    /// Process a scan folder: decode, triangulate, place by turntable pose, merge (resumes finished stages).
+    /// Process a scan folder: decode, triangulate, denoise, merge, register, fuse, reconstruct, remesh
+    /// (reuses every output whose inputs and settings are unchanged).
     Process(ProcessArgs),
     /// Denoise range grids (PLY with range_grid) by the non-local filter, or the bilateral baseline.
     Denoise(DenoiseArgs),
@@ -143,6 +126,9 @@ pub struct ScanArgs {
     /// Testing: the virtual turntable goes silent after this many commands (an unplugged cable).
     #[arg(long, hide = true)]
     pub virtual_unplug_after: Option<usize>,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -248,6 +234,9 @@ pub struct ConvertArgs {
     /// Write coordinates as `double` instead of `float` (PLY).
     #[arg(long)]
     pub double: bool,
+    /// Print what was written as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// The simulated rig and the object on its platter.
@@ -355,16 +344,12 @@ fn parse_sweep(s: &str) -> Result<Sweep, String> {
     Ok(Sweep((0..n).map(|k| a + k as f64 * step).collect()))
 }
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum StageArg {
-    Decode,
-    Triangulate,
-    Denoise,
-    Merge,
-    Register,
-    Fuse,
-    Reconstruct,
-    Remesh,
+/// A stage by name, for `--until`.
+fn parse_stage(name: &str) -> Result<process::Stage, String> {
+    process::Stage::from_name(name).ok_or_else(|| {
+        let names: Vec<&str> = process::Stage::ALL.iter().map(|s| s.name()).collect();
+        format!("`{name}` is not a stage; the stages are {}", names.join(", "))
+    })
 }
 
 #[derive(clap::Args, Debug)]
@@ -374,21 +359,33 @@ pub struct ProcessArgs {
     /// Output folder (default: SCAN/processed).
     #[arg(long, short)]
     pub out: Option<PathBuf>,
-    /// Stop after this stage.
-    #[arg(long, value_enum, default_value = "remesh")]
-    pub until: StageArg,
+    /// Stop after this stage: decode, triangulate, denoise, merge, register, fuse, reconstruct or remesh.
+    #[arg(long, value_parser = parse_stage, default_value = "remesh")]
+    pub until: process::Stage,
     /// Redo stages whose outputs are already current.
     #[arg(long)]
     pub force: bool,
     /// Skip the denoising stage.
     #[arg(long)]
     pub no_denoise: bool,
-    /// Keep points within this radius of the turntable axis, mm (default: the rig's platter radius).
-    #[arg(long)]
-    pub crop_radius: Option<f64>,
-    /// Keep points at least this high above the platter, mm.
-    #[arg(long, default_value_t = 1.0)]
-    pub crop_min_height: f64,
+    /// Decoding (as `scanrig decode`).
+    #[command(flatten, next_help_heading = "Decoding")]
+    pub decode: DecodeOpts,
+    /// Denoising (as `scanrig denoise`).
+    #[command(flatten, next_help_heading = "Denoising")]
+    pub denoise: DenoiseOpts,
+    /// The object cylinder.
+    #[command(flatten, next_help_heading = "Merging")]
+    pub crop: CropOpts,
+    /// Fusion (as `scanrig fuse`).
+    #[command(flatten, next_help_heading = "Fusion")]
+    pub fuse: FuseOpts,
+    /// Reconstruction (as `scanrig reconstruct`).
+    #[command(flatten, next_help_heading = "Reconstruction")]
+    pub reconstruct: ReconstructOpts,
+    /// Remeshing (as `scanrig remesh`).
+    #[command(flatten, next_help_heading = "Remeshing")]
+    pub remesh: RemeshOpts,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -410,15 +407,15 @@ pub struct DecodeArgs {
     /// The order the images were captured in.
     #[arg(long, value_enum, default_value = "opencv")]
     pub order: FrameOrder,
-    /// Shadow threshold: white − black below this is not decoded (OpenCV's blackThreshold is 40).
-    #[arg(long, default_value_t = 12.0)]
-    pub shadow_threshold: f64,
-    /// A pixel whose weakest Gray bit has |pattern − inverse| below this is dropped (OpenCV's whiteThreshold is 5).
-    #[arg(long, default_value_t = 1)]
-    pub bit_threshold: u8,
+    /// The decoder's thresholds.
+    #[command(flatten)]
+    pub decode: DecodeOpts,
     /// Output: a NumPy (H, W, 3) array of projector u, v and confidence; a PNG preview is written beside it.
     #[arg(long, short, default_value = "correspondence.npy")]
     pub out: PathBuf,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -440,22 +437,9 @@ pub struct DemoArgs {
     /// `scan/truth/rig.toml` and accuracy is still measured against the truth.
     #[arg(long)]
     pub rig: Option<PathBuf>,
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FilterArg {
-    /// Non-local: patch similarity (thesis ch. 4).
-    NonLocal,
-    /// Bilateral: the point pair's similarity only.
-    Bilateral,
-}
-
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum DirectionArg {
-    /// Along least-squares normals (additive noise).
-    Normal,
-    /// Along the line of sight (view-dependent noise: structured light, lasers).
-    Sight,
+    /// Print the simulation's and the processing's reports and the accuracy as one JSON object.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -467,49 +451,15 @@ pub struct DenoiseArgs {
     /// Output file (one input) or folder (several); written atomically.
     #[arg(long, short)]
     pub out: PathBuf,
-    /// The filter.
-    #[arg(long, value_enum, default_value = "non-local")]
-    pub filter: FilterArg,
-    /// Displacement direction.
-    #[arg(long, value_enum, default_value = "normal")]
-    pub direction: DirectionArg,
-    /// Neighbourhood N size (odd: 7 means 7x7).
-    #[arg(long, default_value_t = 7)]
-    pub window: usize,
-    /// Similarity patch O size (odd: 5 means 5x5).
-    #[arg(long, default_value_t = 5)]
-    pub patch: usize,
-    /// Filter passes.
-    #[arg(long, default_value_t = 1)]
-    pub iterations: usize,
-    /// Keep N the same size near holes and borders.
-    #[arg(long)]
-    pub no_adaptive: bool,
-    /// Bandwidths d and s of eq. 4.4 in the file's units, as D,S (default: estimated per grid, d = 0.75 μd
-    /// and s = σs, section 4.3.2).
-    #[arg(long, value_parser = parse_bandwidth)]
-    pub bandwidth: Option<(f64, f64)>,
-    /// Keep cells without a valid neighbour (they cannot be filtered, and are mostly flying pixels, so
-    /// by default they are dropped).
-    #[arg(long)]
-    pub keep_isolated: bool,
+    /// The filter's settings.
+    #[command(flatten)]
+    pub filter: DenoiseOpts,
     /// Sequences: use this many frames before and after each frame (eq. 4.6).
     #[arg(long, default_value_t = 0)]
     pub temporal: usize,
     /// Print the reports as JSON.
     #[arg(long)]
     pub json: bool,
-}
-
-/// `D,S`: two positive numbers.
-fn parse_bandwidth(text: &str) -> Result<(f64, f64), String> {
-    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
-    let [d, s] = parts[..] else { return Err(format!("expected D,S (two numbers), got {text:?}")) };
-    let num = |x: &str| match x.parse::<f64>() {
-        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
-        _ => Err(format!("{x:?} is not a positive number")),
-    };
-    Ok((num(d)?, num(s)?))
 }
 
 #[derive(clap::Args, Debug)]
@@ -519,19 +469,9 @@ pub struct ReconstructArgs {
     /// The mesh to write (.ply or .obj).
     #[arg(long, short)]
     pub out: PathBuf,
-    /// Reconstruction method.
-    #[arg(long, value_enum, default_value = "fft")]
-    pub method: MethodArg,
-    /// Grid of 2^depth points per axis (AdFFT: the equivalent global grid).
-    #[arg(long, default_value_t = process::reconstruct::global_fft::FftParams::default().depth)]
-    pub depth: u32,
-    /// AdFFT: split octree cells whose samples lie farther than this from their local surface on
-    /// average (cloud units; default half a grid cell).
-    #[arg(long)]
-    pub error: Option<f64>,
-    /// Refuse grids needing more memory than this, GB.
-    #[arg(long, default_value_t = 8.0)]
-    pub memory_budget: f64,
+    /// The method and its settings.
+    #[command(flatten)]
+    pub reconstruct: ReconstructOpts,
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
@@ -544,16 +484,9 @@ pub struct RemeshArgs {
     /// The quad mesh to write (.obj or .ply).
     #[arg(long, short)]
     pub out: PathBuf,
-    /// Distance between neighbouring streamlines: the quad size (default 1 % of the bounding-box
-    /// diagonal).
-    #[arg(long)]
-    pub spacing: Option<f64>,
-    /// Creases folding by more than this many degrees become feature lines the quads follow.
-    #[arg(long, default_value_t = process::remesh::RemeshParams::default().feature_angle.unwrap_or(30.0))]
-    pub features: f64,
-    /// Follow no creases.
-    #[arg(long)]
-    pub no_features: bool,
+    /// The remesher's settings.
+    #[command(flatten)]
+    pub remesh: RemeshOpts,
     /// Constraint lines to follow: one per line, vertex indices, or `p` and x y z points snapped to the
     /// surface; `#` comments.
     #[arg(long)]
@@ -562,12 +495,6 @@ pub struct RemeshArgs {
     /// high values attract them.
     #[arg(long)]
     pub conductivity: Option<PathBuf>,
-    /// Weight of the line constraints against the Laplace equation.
-    #[arg(long, default_value_t = process::remesh::RemeshParams::default().weight)]
-    pub weight: f64,
-    /// Keep the n-gons at T-junctions instead of splitting them into quads and a triangle.
-    #[arg(long)]
-    pub keep_polygons: bool,
     /// Also write the streamlines as OBJ polylines to this file.
     #[arg(long)]
     pub lines: Option<PathBuf>,
@@ -653,14 +580,6 @@ pub enum CalibrateTarget {
     Import,
 }
 
-#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum MethodArg {
-    /// The global FFT method (Kazhdan 2005): one N³ grid.
-    Fft,
-    /// Adaptive FFT with partition of unity (thesis 5.3): local solutions, memory along one plane.
-    Adfft,
-}
-
 #[derive(clap::Args, Debug)]
 pub struct FuseArgs {
     /// The registered cloud (.ply with optional normals and confidence, .obj, .off vertices).
@@ -668,9 +587,9 @@ pub struct FuseArgs {
     /// The fused cloud (.ply or .obj), with normals.
     #[arg(long, short)]
     pub out: PathBuf,
-    /// Neighbours per kernel (the adaptive kernel size).
-    #[arg(long, default_value_t = process::mean_shift::MeanShiftParams::default().k)]
-    pub k: usize,
+    /// Fusion's settings.
+    #[command(flatten)]
+    pub fuse: FuseOpts,
     /// Also write the points removed as outliers here.
     #[arg(long)]
     pub outliers: Option<PathBuf>,
@@ -689,6 +608,9 @@ pub struct RegisterArgs {
     /// The registered, merged cloud (default: PROCESSED/registered.ply); poses go beside it as JSON.
     #[arg(long, short)]
     pub out: Option<PathBuf>,
+    /// The object cylinder.
+    #[command(flatten)]
+    pub crop: CropOpts,
     /// Print the poses as JSON.
     #[arg(long)]
     pub json: bool,

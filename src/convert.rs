@@ -26,12 +26,22 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
     match mesh {
         Some(m) => {
             rig::write_mesh(&args.output, &m, &opts)?;
-            println!("{}: {} vertices, {} faces", args.output.display(), m.vertices.len(), m.face_count());
+            if args.json {
+                let json = serde_json::json!({"output": args.output, "kind": "mesh", "vertices": m.vertices.len(), "faces": m.face_count()});
+                println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
+            } else {
+                println!("{}: {} vertices, {} faces", args.output.display(), m.vertices.len(), m.face_count());
+            }
         }
         None => {
             let cloud = rig::read_cloud(&args.input)?;
             rig::write_cloud(&args.output, &cloud, &opts).with_context(|| "writing the point cloud")?;
-            println!("{}: {} points", args.output.display(), cloud.len());
+            if args.json {
+                let json = serde_json::json!({"output": args.output, "kind": "cloud", "points": cloud.len()});
+                println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
+            } else {
+                println!("{}: {} points", args.output.display(), cloud.len());
+            }
         }
     }
     Ok(())

@@ -44,16 +44,17 @@ pub fn run(args: &DecodeArgs) -> Result<()> {
     let images =
         files.iter().map(|f| Ok(rig::image::read_png(f)?.to_gray())).collect::<Result<Vec<_>, rig::Error>>()?;
     let frames: Vec<(Pattern, &rig::image::Image8)> = order.iter().copied().zip(images.iter()).collect();
-    let params = process::DecodeParams {
-        shadow_threshold: args.shadow_threshold,
-        bit_threshold: args.bit_threshold,
-        ..Default::default()
-    };
-    let (map, report) =
-        process::decode_view(&frames, pw, ph, &params).with_context(|| format!("decoding {}", args.dir.display()))?;
+    let params = args.decode.params()?;
+    let (map, report) = process::pipeline::stages::decode(&frames, (pw, ph), &params)
+        .with_context(|| format!("decoding {}", args.dir.display()))?;
     rig::npy::write(&args.out, &map.to_npy())?;
     let preview = args.out.with_extension("png");
     rig::image::write_png(&preview, &map.preview(pw, ph), false)?;
+    if args.json {
+        let json = serde_json::json!({"output": args.out, "preview": preview, "report": report});
+        println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
+        return Ok(());
+    }
     println!(
         "{}: {} of {} pixels decoded ({} lit, {} with rows); preview {}",
         args.out.display(),

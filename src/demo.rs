@@ -5,6 +5,7 @@ use crate::cli::DemoArgs;
 use anyhow::{Context, Result};
 use rig::Method;
 use sim::{Albedo, Scene, UpAxis};
+use std::fmt::Write as _;
 
 pub fn run(args: &DemoArgs) -> Result<()> {
     let mut cfg = crate::sim_cmd::load_config("structured-light")?;
@@ -18,80 +19,87 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let size = cfg.scene.object_size_mm;
     let vase = sim::place_on_platter(&sim::fluted_vase(size).to_poly(), size, UpAxis::Z, rig::Vector3::zeros());
     let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(cfg.scene.object_albedo));
-    eprintln!(
+    crate::progress::note(format!(
         "1/2 simulating {} views at {}×{} into {}",
         cfg.scan.views,
         cfg.rig.camera.width,
         cfg.rig.camera.height,
         scan.display()
-    );
+    ));
     let opts = sim::ScanOptions { method: Method::StructuredLight, seed: args.seed, truth: true };
+    let mut progress = crate::progress::Progress::new();
     let sim_report = sim::simulate_scan(&cfg, &scene, Some(&vase), opts, &scan, |done, total| {
-        eprint!("\r  view {done}/{total}");
-        if done == total {
-            eprintln!();
-        }
+        progress.update("simulate", done, total)
     })
     .with_context(|| format!("simulating into {}", scan.display()))?;
     if let Some(path) = &args.rig {
         use_rig(&scan, path, &cfg.rig.camera)?;
     }
-    eprintln!("2/2 processing into {}", processed.display());
+    progress.finish();
+    crate::progress::note(format!("2/2 processing into {}", processed.display()));
     let report = crate::process_cmd::run_pipeline(&scan, &processed, &process::ProcessParams::default())?;
     let points: usize = report.views.iter().map(|v| v.points).sum();
-    println!(
+    let mut text = String::new();
+    writeln!(
+        text,
         "scanrig demo: {} views simulated ({} frames, {:.1} s) and processed ({:.1} s)",
         sim_report.views, sim_report.frames_written, sim_report.total_seconds, report.total_seconds
-    );
-    println!("  scan folder        {}  (frames, scan.json, rig.toml, truth/)", scan.display());
-    println!("  projector maps     {}", processed.join("decode").display());
-    println!(
+    )?;
+    writeln!(text, "  scan folder        {}  (frames, scan.json, rig.toml, truth/)", scan.display())?;
+    writeln!(text, "  projector maps     {}", processed.join("decode").display())?;
+    writeln!(
+        text,
         "  range grids        {}  ({points} points over {} views)",
         processed.join("views").display(),
         report.views.len()
-    );
-    println!("  denoised grids     {}  (non-local filter, thesis ch. 4)", processed.join("denoised").display());
-    println!("  depth previews     {}", processed.join("preview").display());
-    println!(
+    )?;
+    writeln!(text, "  denoised grids     {}  (non-local filter, thesis ch. 4)", processed.join("denoised").display())?;
+    writeln!(text, "  depth previews     {}", processed.join("preview").display())?;
+    writeln!(
+        text,
         "  merged cloud       {}  ({} points, object frame, mm)",
         processed.join("merged.ply").display(),
-        report.merged_points
-    );
-    if let Some(r) = &report.register {
-        println!(
+        report.merged_points()
+    )?;
+    if let Some(r) = report.register.as_ref().map(|s| &s.report) {
+        writeln!(
+            text,
             "  registered cloud   {}  ({} points; views moved up to {:.3}° and {:.3} mm from the turntable poses)",
             processed.join("registered.ply").display(),
             r.points,
             r.max_rotation_change_deg,
             r.max_shift_mm
-        );
+        )?;
     }
-    if let Some(f) = &report.fuse {
-        println!(
+    if let Some(f) = report.fuse.as_ref().map(|s| &s.report) {
+        writeln!(
+            text,
             "  fused cloud        {}  ({} points with normals; {} outliers removed; mean shift, thesis ch. 3)",
             processed.join("fused.ply").display(),
-            f.points_out,
-            f.strays + f.outliers_removed
-        );
+            f.mean_shift.points_out,
+            f.points_removed
+        )?;
     }
-    if let Some(r) = &report.reconstruct {
+    if let Some(r) = report.reconstruct.as_ref().map(|s| &s.report) {
         let mesh = rig::read_mesh(&processed.join("mesh.ply"))?.triangulate();
         let t = rig::topology::topology(&mesh);
-        println!(
+        writeln!(
+            text,
             "  watertight mesh    {}  ({} triangles, {}³ FFT grid, cell {:.2} mm; {})",
             processed.join("mesh.ply").display(),
-            r.triangles,
-            r.n,
-            r.cell,
+            r.triangles(),
+            r.n(),
+            r.cell(),
             match t.genus() {
                 Some(g) => format!("closed 2-manifold, {} component(s), genus {g}", t.components),
                 None => "NOT closed".to_string(),
             }
-        );
+        )?;
     }
-    if let Some(r) = &report.remesh {
+    if let Some(r) = report.remesh.as_ref().map(|s| &s.report) {
         let q = &r.quality;
-        println!(
+        writeln!(
+            text,
             "  quad mesh          {}  ({} faces, {:.1} % quads, corners {:.1}° from square on average; \
              within {:.2} mm of the mesh; harmonic-field streamlines, thesis ch. 6)",
             processed.join("quads.obj").display(),
@@ -99,12 +107,13 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             100.0 * q.quad_fraction,
             q.mean_angle_error_deg,
             q.hausdorff
-        );
+        )?;
     }
-    println!("  report             {}", processed.join("report.json").display());
+    writeln!(text, "  report             {}", processed.join("report.json").display())?;
     let diag = vase.bounding_box().map_or(size, |b| b.diagonal());
     let acc = accuracy(&scan, &processed, &cfg.rig.camera, report.views.len(), diag)?;
-    println!(
+    writeln!(
+        text,
         "  accuracy           {}  (median {:.4} mm = {:.4} % of the object's diagonal from the truth surface; \
          {:.2} % of visible lit pixels decoded; {:.4} % of points over 1 % of the diagonal off{})",
         args.out.join("accuracy.json").display(),
@@ -113,9 +122,15 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         acc["decoded_percent"].as_f64().unwrap_or(f64::NAN),
         acc["outlier_percent"].as_f64().unwrap_or(f64::NAN),
         if args.rig.is_some() { "; with the given rig" } else { "" }
-    );
+    )?;
     rig::write_atomic(&args.out.join("accuracy.json"), serde_json::to_string_pretty(&acc)?.as_bytes())?;
-    println!("  the ground-truth object is {}", scan.join("truth/object.ply").display());
+    writeln!(text, "  the ground-truth object is {}", scan.join("truth/object.ply").display())?;
+    if args.json {
+        let json = serde_json::json!({ "simulation": sim_report, "process": report, "accuracy": acc });
+        println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
+    } else {
+        print!("{text}");
+    }
     Ok(())
 }
 

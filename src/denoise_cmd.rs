@@ -1,16 +1,9 @@
 //! `scanrig denoise`: range grids through the non-local (or bilateral) filter.
 
-use crate::cli::{DenoiseArgs, DirectionArg, FilterArg};
+use crate::cli::DenoiseArgs;
 use anyhow::{Context, Result, bail};
-use process::denoise::{DenoiseParams, Direction, Similarity, denoise_sequence};
+use process::pipeline::stages;
 use std::io::Write;
-
-fn half(size: usize, what: &str) -> Result<usize> {
-    if size < 3 || size.is_multiple_of(2) {
-        bail!("--{what} must be an odd size of at least 3, got {size}");
-    }
-    Ok(size / 2)
-}
 
 /// Four significant digits, so lengths read the same in metres and in millimetres.
 fn significant(x: f64) -> String {
@@ -22,38 +15,41 @@ fn significant(x: f64) -> String {
 }
 
 pub fn run(args: &DenoiseArgs) -> Result<()> {
-    let params = DenoiseParams {
-        window: half(args.window, "window")?,
-        similarity: match args.filter {
-            FilterArg::NonLocal => Similarity::NonLocal { half: half(args.patch, "patch")? },
-            FilterArg::Bilateral => Similarity::Bilateral,
-        },
-        direction: if args.direction == DirectionArg::Sight { Direction::LineOfSight } else { Direction::Normal },
-        iterations: args.iterations.max(1),
-        adaptive: !args.no_adaptive,
-        bandwidth: args.bandwidth,
-        drop_isolated: !args.keep_isolated,
-        ..Default::default()
-    };
+    let params = args.filter.params()?;
     let grids = args.inputs.iter().map(|p| rig::ply::read_range_grid(p)).collect::<Result<Vec<_>, _>>()?;
     let single = grids.len() == 1;
+    if args.temporal > grids.len() {
+        bail!("--temporal {} reaches past the {} frames given", args.temporal, grids.len());
+    }
+    let outputs: Vec<std::path::PathBuf> = if single {
+        vec![args.out.clone()]
+    } else {
+        args.inputs.iter().map(|i| args.out.join(i.file_name().unwrap_or_default())).collect()
+    };
+    for (k, a) in outputs.iter().enumerate() {
+        if let Some(j) = outputs[..k].iter().position(|b| b == a) {
+            bail!(
+                "{} and {} would both be written to {}: give inputs distinct file names",
+                args.inputs[j].display(),
+                args.inputs[k].display(),
+                a.display()
+            );
+        }
+    }
     if !single {
         std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     }
     let mut reports = Vec::new();
     for (k, input) in args.inputs.iter().enumerate() {
-        let (mut clean, report) = denoise_sequence(&grids, k, args.temporal, &params)
+        let (clean, report) = stages::denoise(&grids, k, args.temporal, &params)
             .with_context(|| format!("denoising {}", input.display()))?;
-        if clean.normals.is_some() {
-            process::grid_normals::estimate_normals(&mut clean, 2.0);
-        }
-        let out = if single { args.out.clone() } else { args.out.join(input.file_name().unwrap_or_default()) };
+        let out = &outputs[k];
         let mut opts = rig::ply::WriteOptions::default();
         let units = rig::ply::read_header(input)?.units();
         if let Some(u) = &units {
             opts = opts.with_units(u);
         }
-        rig::ply::write_range_grid(&out, &clean, &opts)?;
+        rig::ply::write_range_grid(out, &clean, &opts)?;
         let unit = units.unwrap_or_else(|| "file units".into());
         eprintln!(
             "{} → {}: {} points, lone cells dropped: {}, d {} s {} {unit}, RMS move {} {unit}, {:.2} s",
@@ -70,7 +66,7 @@ pub fn run(args: &DenoiseArgs) -> Result<()> {
     }
     if args.json {
         let mut o = std::io::stdout().lock();
-        serde_json::to_writer_pretty(&mut o, &reports)?;
+        serde_json::to_writer_pretty(&mut o, &crate::outputs::versioned(&serde_json::json!({ "grids": reports })))?;
         writeln!(o)?;
     }
     Ok(())

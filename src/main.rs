@@ -9,18 +9,22 @@ mod demo;
 mod denoise_cmd;
 mod fuse_cmd;
 mod info;
+mod outputs;
 mod process_cmd;
+mod progress;
 mod reconstruct_cmd;
 mod register_cmd;
 mod remesh_cmd;
 mod scan_cmd;
 mod sim_cmd;
+mod stage_args;
 
 use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
     let args = cli::Args::parse();
+    progress::set_quiet(args.quiet);
     let result = match args.command {
         cli::Command::Info(a) => info::run(&a),
         cli::Command::Convert(a) => convert::run(&a),
@@ -45,12 +49,45 @@ fn main() -> ExitCode {
         // A closed pipe (`scanrig info x.ply | head`) is the reader's choice, not a failure.
         Err(e) if is_broken_pipe(&e) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", message(&e));
             ExitCode::FAILURE
         }
     }
 }
 
+/// The error and its causes on one line: a cause whose text the message already holds (errors that
+/// print their source as part of themselves) is not repeated, and control characters from file
+/// contents are shown escaped rather than sent to the terminal.
+fn message(e: &anyhow::Error) -> String {
+    let mut text = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !text.contains(&c) {
+            text.push_str(": ");
+            text.push_str(&c);
+        }
+    }
+    text.chars()
+        .flat_map(|c| {
+            let escaped: Vec<char> = if c.is_control() { c.escape_default().collect() } else { vec![c] };
+            escaped
+        })
+        .collect()
+}
+
 fn is_broken_pipe(e: &anyhow::Error) -> bool {
     e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn messages_say_each_cause_once_and_escape_control_characters() {
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file or directory (os error 2)");
+        let e = anyhow::Error::new(rig::Error::io(std::path::Path::new("a.ply"), io)).context("reading a.ply");
+        let m = super::message(&e);
+        assert_eq!(m.matches("No such file or directory").count(), 1, "{m}");
+        let e = anyhow::anyhow!("bad name \u{1b}[31mred\u{7}");
+        assert_eq!(super::message(&e), "bad name \\u{1b}[31mred\\u{7}");
+    }
 }

@@ -1,113 +1,137 @@
 //! `scanrig process`: a scan folder through the pipeline.
 
-use crate::cli::{ProcessArgs, StageArg};
+use crate::cli::ProcessArgs;
+use crate::progress::Progress;
 use anyhow::{Context, Result};
+use process::pipeline::Section;
 use process::{ProcessParams, ProcessReport, Stage};
 use std::io::Write;
 use std::path::Path;
 
-pub fn params(args: &ProcessArgs) -> ProcessParams {
+pub fn params(args: &ProcessArgs) -> Result<ProcessParams> {
     let defaults = ProcessParams::default();
-    ProcessParams {
-        until: match args.until {
-            StageArg::Decode => Stage::Decode,
-            StageArg::Triangulate => Stage::Triangulate,
-            StageArg::Denoise => Stage::Denoise,
-            StageArg::Merge => Stage::Merge,
-            StageArg::Register => Stage::Register,
-            StageArg::Fuse => Stage::Fuse,
-            StageArg::Reconstruct => Stage::Reconstruct,
-            StageArg::Remesh => Stage::Remesh,
-        },
-        denoise: if args.no_denoise { None } else { defaults.denoise },
+    Ok(ProcessParams {
+        until: args.until,
+        decode: args.decode.params()?,
+        denoise: if args.no_denoise { None } else { Some(args.denoise.params()?) },
         force: args.force,
-        crop: process::placement::CropParams {
-            radius_mm: args.crop_radius,
-            min_height_mm: args.crop_min_height,
-            ..defaults.crop
-        },
+        crop: args.crop.params()?,
+        fuse: args.fuse.params()?,
+        reconstruct: args.reconstruct.params()?,
+        remesh: args.remesh.params()?,
         ..defaults
-    }
+    })
 }
 
-/// Runs the pipeline with a progress line on stderr.
+/// Runs the pipeline with progress on stderr, and names each stage that ran again and why.
 pub fn run_pipeline(scan: &Path, out: &Path, params: &ProcessParams) -> Result<ProcessReport> {
-    let report = process::process_scan(scan, out, params, |stage, done, total| {
-        eprint!("\r  {stage} {done}/{total}   ");
-        if done == total {
-            eprintln!();
-        }
+    let mut progress = Progress::new();
+    let report = process::process_scan(scan, out, params, |stage: Stage, done, total| {
+        let phase = if stage <= Stage::Denoise { "views" } else { stage.name() };
+        progress.update(phase, done, total);
     })
     .with_context(|| format!("processing {}", scan.display()))?;
+    progress.finish();
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
+    }
     Ok(report)
+}
+
+/// "reused" or "ran: why".
+fn status<T>(s: &Section<T>) -> String {
+    match &s.reason {
+        None => "reused".into(),
+        Some(why) => format!("ran: {why}"),
+    }
 }
 
 pub fn run(args: &ProcessArgs) -> Result<()> {
     let out = args.out.clone().unwrap_or_else(|| args.scan.join("processed"));
-    let report = run_pipeline(&args.scan, &out, &params(args))?;
+    let report = run_pipeline(&args.scan, &out, &params(args)?)?;
     let mut o = std::io::stdout().lock();
     if args.json {
         serde_json::to_writer_pretty(&mut o, &report)?;
         writeln!(o)?;
-    } else {
-        let points: usize = report.views.iter().map(|v| v.points).sum();
-        let reused = report.views.iter().filter(|v| v.reused).count();
+        return Ok(());
+    }
+    print_summary(&mut o, &out, &report)
+}
+
+pub fn print_summary(o: &mut impl Write, out: &Path, report: &ProcessReport) -> Result<()> {
+    let points: usize = report.views.iter().map(|v| v.points).sum();
+    let reused = report.views.iter().filter(|v| v.reused).count();
+    writeln!(
+        o,
+        "{}: {} views ({reused} reused), {points} points, {:.1} s",
+        out.display(),
+        report.views.len(),
+        report.total_seconds
+    )?;
+    // Why views ran again, once per distinct reason.
+    let mut reasons: Vec<String> = Vec::new();
+    for v in &report.views {
+        let sections = [
+            v.decode.as_ref().and_then(|s| s.reason.as_ref().map(|r| format!("decode: {r}"))),
+            v.triangulate.as_ref().and_then(|s| s.reason.as_ref().map(|r| format!("triangulate: {r}"))),
+            v.denoise.as_ref().and_then(|s| s.reason.as_ref().map(|r| format!("denoise: {r}"))),
+        ];
+        for r in sections.into_iter().flatten().chain(v.lasers.iter().filter_map(|s| s.reason.clone())) {
+            let r = r.replace(&format!("view_{:03}", v.view), "view_NNN");
+            if !reasons.contains(&r) {
+                reasons.push(r);
+            }
+        }
+    }
+    for r in &reasons {
+        writeln!(o, "  views ran: {r}")?;
+    }
+    if !report.incomplete_views.is_empty() {
+        writeln!(o, "  left out incomplete views {:?}", report.incomplete_views)?;
+    }
+    if let Some(s) = &report.merge {
+        writeln!(o, "  merged: {} points ({})", s.report.points, status(s))?;
+    }
+    if let Some(s) = &report.register {
+        let r = &s.report;
         writeln!(
             o,
-            "{}: {} views ({reused} reused), {points} points, merged cloud {} points, {:.1} s",
-            out.display(),
-            report.views.len(),
-            report.merged_points,
-            report.total_seconds
+            "  registered {} views: moved up to {:.3}° and {:.3} mm from the turntable poses ({})",
+            r.views,
+            r.max_rotation_change_deg,
+            r.max_shift_mm,
+            status(s)
         )?;
-        if !report.incomplete_views.is_empty() {
-            writeln!(o, "  left out incomplete views {:?}", report.incomplete_views)?;
-        }
-        if let Some(r) = &report.register {
-            writeln!(
-                o,
-                "  registered {} views: moved up to {:.3}° and {:.3} mm from the turntable poses{}",
-                r.views,
-                r.max_rotation_change_deg,
-                r.max_shift_mm,
-                if r.reused { " (reused)" } else { "" }
-            )?;
-        }
-        if let Some(f) = &report.fuse {
-            writeln!(
-                o,
-                "  fused: {} → {} points, {} outliers removed, {:.1} s",
-                f.points_in,
-                f.points_out,
-                f.strays + f.outliers_removed,
-                f.seconds_kernels + f.seconds_shift + f.seconds_cluster
-            )?;
-        }
-        if let Some(r) = &report.reconstruct {
-            writeln!(
-                o,
-                "  mesh: {} triangles, {}³ grid (cell {:.3} mm), {:.1} s",
-                r.triangles,
-                r.n,
-                r.cell,
-                r.seconds_splat + r.seconds_fft + r.seconds_extract
-            )?;
-        }
-        if let Some(r) = &report.remesh {
-            let q = &r.quality;
-            writeln!(
-                o,
-                "  quads: {} faces, {:.1} % quads, Hausdorff {:.3} mm, {:.1} s",
-                q.faces,
-                100.0 * q.quad_fraction,
-                q.hausdorff,
-                r.seconds.field + r.seconds.streamlines + r.seconds.quads
-            )?;
-        }
-        for s in &report.skipped {
-            writeln!(o, "  skipped {s}")?;
-        }
-        writeln!(o, "  report: {}", out.join("report.json").display())?;
     }
+    if let Some(s) = &report.fuse {
+        let f = &s.report;
+        writeln!(
+            o,
+            "  fused: {} → {} points, {} outliers removed ({})",
+            f.mean_shift.points_in,
+            f.mean_shift.points_out,
+            f.points_removed,
+            status(s)
+        )?;
+    }
+    if let Some(s) = &report.reconstruct {
+        let r = &s.report;
+        writeln!(o, "  mesh: {} triangles, {}³ grid (cell {:.3} mm) ({})", r.triangles(), r.n(), r.cell(), status(s))?;
+    }
+    if let Some(s) = &report.remesh {
+        let q = &s.report.quality;
+        writeln!(
+            o,
+            "  quads: {} faces, {:.1} % quads, Hausdorff {:.3} mm ({})",
+            q.faces,
+            100.0 * q.quad_fraction,
+            q.hausdorff,
+            status(s)
+        )?;
+    }
+    for s in &report.skipped {
+        writeln!(o, "  skipped {s}")?;
+    }
+    writeln!(o, "  report: {}", out.join("report.json").display())?;
     Ok(())
 }

@@ -1,44 +1,19 @@
-//! `scanrig reconstruct`: a watertight mesh from an oriented cloud.
+//! `scanrig reconstruct`: a watertight mesh from an oriented cloud — the pipeline's reconstruct stage
+//! on a file.
 
-use crate::cli::{MethodArg, ReconstructArgs};
+use crate::cli::ReconstructArgs;
 use anyhow::{Context, Result};
-use process::reconstruct::adfft::{AdFftParams, reconstruct_adfft};
-use process::reconstruct::global_fft::{FftParams, reconstruct_fft};
-use rig::ply::WriteOptions;
+use process::pipeline::stages::{self, ReconstructReport};
 use rig::topology::topology;
 use std::io::Write;
 
 pub fn run(args: &ReconstructArgs) -> Result<()> {
+    let params = args.reconstruct.params()?;
     let cloud = rig::read_cloud(&args.input)?;
-    let mut opts = WriteOptions::default();
-    if rig::MeshFormat::of(&args.input) == Some(rig::MeshFormat::Ply)
-        && let Some(u) = rig::ply::read_header(&args.input)?.units()
-    {
-        opts = opts.with_units(&u);
-    }
+    let opts = crate::outputs::write_options_like(&args.input)?;
     let start = std::time::Instant::now();
-    let context = || format!("reconstructing {}", args.input.display());
-    anyhow::ensure!(
-        args.error.is_none() || args.method == MethodArg::Adfft,
-        "--error steers AdFFT's octree; the global method (--method fft) has none"
-    );
-    let (mesh, report, patches) = match args.method {
-        MethodArg::Fft => {
-            let params =
-                FftParams { depth: args.depth, memory_budget: (args.memory_budget * 1e9) as u64, ..Default::default() };
-            let (mesh, r) = reconstruct_fft(&cloud, &params).with_context(context)?;
-            (mesh, serde_json::to_value(&r)?, None)
-        }
-        MethodArg::Adfft => {
-            if let Some(e) = args.error {
-                anyhow::ensure!(e > 0.0 && e.is_finite(), "--error must be a positive distance, got {e}");
-            }
-            let params = AdFftParams { depth: args.depth, error: args.error, ..Default::default() };
-            let (mesh, r) = reconstruct_adfft(&cloud, &params).with_context(context)?;
-            let patches = r.leaves();
-            (mesh, serde_json::to_value(&r)?, Some(patches))
-        }
-    };
+    let (mesh, report) =
+        stages::reconstruct(&cloud, &params).with_context(|| format!("reconstructing {}", args.input.display()))?;
     let seconds = start.elapsed().as_secs_f64();
     rig::write_mesh(&args.out, &mesh.to_poly(), &opts)?;
     let t = topology(&mesh);
@@ -52,19 +27,22 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
             "seconds": seconds,
             "peak_resident_bytes": peak,
         });
-        serde_json::to_writer_pretty(&mut o, &json)?;
+        serde_json::to_writer_pretty(&mut o, &crate::outputs::versioned(&json))?;
         writeln!(o)?;
     } else {
+        let patches = match &report {
+            ReconstructReport::Adfft(r) => format!(", {} patches", r.leaves()),
+            ReconstructReport::Fft(_) => String::new(),
+        };
         writeln!(
             o,
-            "{}: {} vertices, {} triangles from {} points; {}³ grid (cell {:.4}){}, {:.2} s, peak memory {}",
+            "{}: {} vertices, {} triangles from {} points; {}³ grid (cell {:.4}){patches}, {:.2} s, peak memory {}",
             args.out.display(),
             mesh.vertices.len(),
             mesh.faces.len(),
             cloud.len(),
-            report["n"],
-            report["cell"].as_f64().unwrap_or(f64::NAN),
-            patches.map_or(String::new(), |p| format!(", {p} patches")),
+            report.n(),
+            report.cell(),
             seconds,
             peak.map_or("unknown".into(), |b| format!("{:.0} MB", b as f64 / 1e6))
         )?;

@@ -1,4 +1,5 @@
-//! `scanrig register`: a processed scan's views refined by multi-view ICP and merged again.
+//! `scanrig register`: a processed scan's views refined by multi-view ICP and merged again — the
+//! pipeline's register stage on a processed folder.
 
 use crate::cli::RegisterArgs;
 use anyhow::{Context, Result};
@@ -6,27 +7,29 @@ use std::io::Write;
 
 pub fn run(args: &RegisterArgs) -> Result<()> {
     let processed = args.processed.clone().unwrap_or_else(|| args.scan.join("processed"));
-    let out = args.out.clone().unwrap_or_else(|| processed.join("registered.ply"));
-    eprintln!("registering the views of {} …", processed.display());
-    let (cloud, poses) =
-        process::register_scan::register_scan(&args.scan, &processed, &Default::default(), &Default::default())
+    let out = args.out.clone().unwrap_or_else(|| processed.join(process::pipeline::layout::REGISTERED));
+    let poses_path = out.with_extension("poses.json");
+    let crop = args.crop.params()?;
+    crate::progress::note(format!("registering the views of {} …", processed.display()));
+    let (cloud, poses, report) =
+        process::pipeline::register_processed(&args.scan, &processed, &crop, &Default::default())
             .with_context(|| format!("registering {}", args.scan.display()))?;
     rig::write_cloud(&out, &cloud, &rig::ply::WriteOptions::default().with_units("mm"))?;
-    let poses_path = out.with_extension("poses.json");
-    rig::write_atomic(&poses_path, &serde_json::to_vec_pretty(&poses)?)?;
+    rig::write_atomic(&poses_path, &process::pipeline::stages::poses_json(&poses))?;
     let mut o = std::io::stdout().lock();
     if args.json {
-        serde_json::to_writer_pretty(&mut o, &poses)?;
+        let json = serde_json::json!({ "report": report, "poses": poses });
+        serde_json::to_writer_pretty(&mut o, &crate::outputs::versioned(&json))?;
         writeln!(o)?;
     } else {
-        let worst = poses.iter().map(|p| p.rotation_change_deg).fold(0.0, f64::max);
-        let shift = poses.iter().map(|p| p.shift_mm).fold(0.0, f64::max);
         writeln!(
             o,
-            "{}: {} views, {} points; largest correction {worst:.3}° / {shift:.3} mm; poses in {}",
+            "{}: {} views, {} points; largest correction {:.3}° / {:.3} mm; poses in {}",
             out.display(),
-            poses.len(),
+            report.views,
             cloud.len(),
+            report.max_rotation_change_deg,
+            report.max_shift_mm,
             poses_path.display()
         )?;
     }

@@ -2,24 +2,21 @@
 
 use crate::cli::RemeshArgs;
 use anyhow::{Context, Result};
+use process::pipeline::stages;
 use process::remesh::quad_remesh::{Streamlines, streamlines};
-use process::remesh::{RemeshParams, RemeshReport, remesh, snap_lines};
+use process::remesh::{RemeshReport, snap_lines};
 use std::fmt::Write as _;
 use std::io::Write;
 
 pub fn run(args: &RemeshArgs) -> Result<()> {
+    let mut params = args.remesh.params()?;
+    crate::outputs::distinct(&[("--out", Some(&args.out)), ("--lines", args.lines.as_deref())])?;
     let mesh = rig::read_mesh(&args.input)?.triangulate();
-    anyhow::ensure!(!mesh.faces.is_empty(), "{}: the mesh has no faces", args.input.display());
-    if let Some(s) = args.spacing {
-        anyhow::ensure!(s > 0.0 && s.is_finite(), "--spacing must be a positive distance, got {s}");
-    }
-    let mut params = RemeshParams {
-        spacing: args.spacing,
-        feature_angle: (!args.no_features).then_some(args.features),
-        weight: args.weight,
-        split_polygons: !args.keep_polygons,
-        ..Default::default()
-    };
+    anyhow::ensure!(
+        !mesh.faces.is_empty(),
+        "{}: the mesh has no faces (a point cloud? `scanrig reconstruct` makes a mesh of one)",
+        args.input.display()
+    );
     if let Some(path) = &args.constraints {
         let lines = rig::remesh_inputs::read_constraints(path)?;
         params.lines = snap_lines(&mesh, &lines).with_context(|| format!("{}", path.display()))?;
@@ -28,7 +25,7 @@ pub fn run(args: &RemeshArgs) -> Result<()> {
         params.conductivity = Some(rig::remesh_inputs::read_face_values(path, mesh.faces.len())?);
     }
     let context = || format!("remeshing {}", args.input.display());
-    let (quads, report) = remesh(&mesh, &params).with_context(context)?;
+    let (quads, report) = stages::remesh(&mesh, &params).with_context(context)?;
     rig::write_mesh(&args.out, &quads, &Default::default())?;
     if let Some(path) = &args.lines {
         let mut r = RemeshReport::default();
@@ -37,7 +34,7 @@ pub fn run(args: &RemeshArgs) -> Result<()> {
     }
     let mut o = std::io::stdout().lock();
     if args.json {
-        serde_json::to_writer_pretty(&mut o, &report)?;
+        serde_json::to_writer_pretty(&mut o, &crate::outputs::versioned(&report))?;
         writeln!(o)?;
         return Ok(());
     }

@@ -166,15 +166,17 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
     );
     let devices =
         acquire::Devices { turntable: &mut turntable, camera: camera.as_mut(), projector: projector.as_mut() };
-    let report = acquire::session::run(&args.out, &rig, &plan, args.resume, devices, |done, total, eta| {
-        let eta = eta.map(|d| format!(", about {:.0} s left", d.as_secs_f64())).unwrap_or_default();
-        eprint!("\r  view {done}/{total}{eta}      ");
-        if done == total {
-            eprintln!();
-        }
-    })
-    .inspect_err(|_| eprintln!())?;
+    let mut progress = crate::progress::Progress::new();
+    let report = acquire::session::run(&args.out, &rig, &plan, args.resume, devices, |done, total, _eta| {
+        progress.update("capture", done, total)
+    })?;
+    progress.finish();
     let mut o = std::io::stdout().lock();
+    if args.json {
+        serde_json::to_writer_pretty(&mut o, &crate::outputs::versioned(&report))?;
+        writeln!(o)?;
+        return Ok(());
+    }
     writeln!(
         o,
         "{}: {} of {} views complete ({} captured now, from view {}) in {:.1} s",

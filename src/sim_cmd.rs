@@ -6,18 +6,10 @@ use rig::Method;
 use sim::{Albedo, Scene, SimConfig, UpAxis};
 use std::io::Write;
 
-/// The built-in configs, so `scanrig sim` runs with no file.
-const STRUCTURED_LIGHT: &str = include_str!("../configs/sim-structured-light.toml");
-const LASER: &str = include_str!("../configs/sim-laser.toml");
-
+/// A built-in config by name (`sim::config::BUILTIN`), else a TOML file.
 pub fn load_config(name: &str) -> Result<SimConfig> {
-    let builtin = match name {
-        "structured-light" => Some(STRUCTURED_LIGHT),
-        "laser" => Some(LASER),
-        _ => None,
-    };
-    Ok(match builtin {
-        Some(text) => SimConfig::from_toml_str(text).map_err(|e| anyhow::anyhow!("built-in config `{name}`: {e}"))?,
+    Ok(match SimConfig::builtin(name) {
+        Some(cfg) => cfg,
         None => SimConfig::read(std::path::Path::new(name))?,
     })
 }
@@ -65,11 +57,9 @@ pub fn run(args: &SimArgs) -> Result<()> {
         cfg.rig.camera.height,
         args.out.display()
     );
+    let mut progress = crate::progress::Progress::new();
     let report = sim::simulate_scan(&cfg, &scene, Some(&object), opts, &args.out, |done, total| {
-        eprint!("\r  view {done}/{total}");
-        if done == total {
-            eprintln!();
-        }
+        progress.update("simulate", done, total)
     })
     .with_context(|| format!("simulating into {}", args.out.display()))?;
     print_report(args, &report)
@@ -98,11 +88,9 @@ fn run_board(args: &SimArgs, cfg: &SimConfig, board: sim::Board) -> Result<()> {
         board.square_mm,
         args.out.display()
     );
+    let mut progress = crate::progress::Progress::new();
     let report = sim::simulate_board(cfg, &board, &poses, opts, &args.out, |done, total| {
-        eprint!("\r  view {done}/{total}");
-        if done == total {
-            eprintln!();
-        }
+        progress.update("simulate", done, total)
     })
     .with_context(|| format!("simulating into {}", args.out.display()))?;
     print_report(args, &report)

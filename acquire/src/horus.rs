@@ -1,7 +1,8 @@
 //! The Horus 0.2 firmware dialect (bq Ciclop boards; a grbl 0.9 fork) and its driver. Everything
 //! about the wire format lives here: the command spellings, the greeting, the reply forms, the host
-//! sequence the reference host software uses (see `PROTOCOLS.md`). A second dialect (FabScanPi) would
-//! sit beside this module behind the same [`Turntable`] trait.
+//! sequence the reference host software uses (the team's notes on device wire formats are in
+//! `PROTOCOLS.md` of the shared folder beside the repository, not in it). A second dialect
+//! (FabScanPi) would sit beside this module behind the same [`Turntable`] trait.
 //!
 //! One line is sent, then exactly one reply line is read (`ok` or `error: <text>`): the firmware's
 //! receive buffer is 128 bytes, so the host never streams. Every G/M command waits for motion to

@@ -53,7 +53,7 @@ impl Plan {
 }
 
 /// What a session did.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct SessionReport {
     /// Views captured by this run.
     pub captured: usize,

@@ -5,8 +5,10 @@
 //! ([`chessboard`], on the grey images of [`gray`]), plane homographies ([`homography`]), Zhang's
 //! closed-form intrinsics ([`zhang`]) refined with distortion and per-view poses by
 //! Levenberg–Marquardt ([`camera_calib`]), and the turntable axis from a board swept on the platter
-//! ([`turntable_axis`]). The projector, laser planes and turntable axis build on
-//! these (still to come: the projector by local homographies, laser planes).
+//! ([`turntable_axis`], or the whole sweep adjusted as one turn by [`sweep`]), the projector by local
+//! homographies around each corner ([`projector`]) and the laser planes from the stripe on the board
+//! ([`laser_plane`]). [`workflow::calibrate_rig`] runs them all on a capture folder or another
+//! tool's images: what `scanrig calibrate` does.
 #![deny(missing_docs)]
 
 pub mod camera_calib;
@@ -18,12 +20,14 @@ pub mod least_squares;
 pub mod projector;
 pub mod sweep;
 pub mod turntable_axis;
+pub mod workflow;
 pub mod zhang;
 
 pub use camera_calib::{CalibError, CameraCalibration, CameraOptions, View, calibrate_camera};
 pub use chessboard::{NotFound, find_corners};
 pub use gray::Gray;
 pub use laser_plane::{BoardRegion, LaserFit, LaserView, fit_laser_plane};
-pub use projector::{Decoded, ProjectorCalibration, StereoView, calibrate_projector, projector_corners};
+pub use projector::{ProjectorCalibration, StereoView, calibrate_projector, projector_corners};
 pub use sweep::{SweepFit, SweepView, fit_sweep};
 pub use turntable_axis::{AxisFit, fit_axis};
+pub use workflow::{BoardSpec, CalibReport, RigCalibParams, Target, WorkflowError, calibrate_rig};

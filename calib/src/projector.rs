@@ -14,29 +14,16 @@ use crate::camera_calib::{CalibError, CameraOptions, View, calibrate_camera};
 use crate::homography::homography;
 use crate::least_squares;
 use crate::turntable_axis::{board_pose, pose_from};
+use decode::ProjectorMap;
 use nalgebra::DVector;
 use rig::math::{Isometry3, Matrix3, Point2, Point3, Real, Vector3};
 use rig::{Distortion, PinholeCamera};
 use serde::Serialize;
 
-/// A view's decoded structured light: per camera pixel (row-major) the projector column `u` and row
-/// `v` that lit it, NaN where not decoded (`process::ProjectorMap`'s layout).
-#[derive(Debug, Clone, Copy)]
-pub struct Decoded<'a> {
-    /// Camera image width.
-    pub width: usize,
-    /// Camera image height.
-    pub height: usize,
-    /// Projector columns.
-    pub u: &'a [Real],
-    /// Projector rows.
-    pub v: &'a [Real],
-}
-
 /// The projector pixel of each camera `corner`, by a homography fitted to the decoded pixels within
 /// `half_window` pixels of it (camera → projector). `None` where fewer than a quarter of the window's
 /// pixels decoded, or the fit is poor (its RMS over a projector pixel).
-pub fn projector_corners(corners: &[Point2], decoded: &Decoded, half_window: usize) -> Vec<Option<Point2>> {
+pub fn projector_corners(corners: &[Point2], decoded: &ProjectorMap, half_window: usize) -> Vec<Option<Point2>> {
     let (w, h) = (decoded.width as isize, decoded.height as isize);
     let r = half_window as isize;
     corners

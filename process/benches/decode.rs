@@ -10,7 +10,6 @@ use rayon::prelude::*;
 use rig::Pattern;
 use rig::image::Image8;
 use sim::{Albedo, Scene, SimConfig};
-use std::path::Path;
 use std::time::Instant;
 
 fn median_ms(runs: usize, mut f: impl FnMut()) -> f64 {
@@ -26,8 +25,7 @@ fn median_ms(runs: usize, mut f: impl FnMut()) -> f64 {
 }
 
 fn main() {
-    let cfg =
-        SimConfig::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/sim-structured-light.toml")).unwrap();
+    let cfg = SimConfig::builtin("structured-light").unwrap();
     let vase = sim::fluted_vase(120.0);
     let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(0.8));
     let projector = cfg.rig.projector.unwrap();

@@ -8,7 +8,6 @@ use process::denoise::{DenoiseParams, Similarity, denoise, denoise_sequence};
 use rig::math::{Isometry3, Point3, Vector3};
 use rig::{RangeGrid, Sensor};
 use sim::{Albedo, Mount, Part, PartKind, Scene, SimConfig};
-use std::path::Path;
 use std::time::Instant;
 
 fn median_s(runs: usize, mut f: impl FnMut()) -> f64 {
@@ -24,9 +23,7 @@ fn median_s(runs: usize, mut f: impl FnMut()) -> f64 {
 }
 
 fn main() {
-    let cfg = SimConfig::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/sim-structured-light.toml"))
-        .unwrap()
-        .with_camera_resolution(640, 480);
+    let cfg = SimConfig::builtin("structured-light").unwrap().with_camera_resolution(640, 480);
     let vase = sim::fluted_vase(120.0);
     let rays = sim::pixel_rays(&cfg.rig.camera);
     // A wall behind the vase fills the frame, so most of the 307 K cells are valid.
@@ -53,11 +50,10 @@ fn main() {
             };
             let g = sim::view_geometry(&scene, &cfg, &rays, &Isometry3::identity());
             let mut grid = RangeGrid::empty(g.width, g.height, Sensor::Center(Point3::origin()));
-            let mut s = 7u64 + k;
+            let mut rng = fixtures::Lcg::new(7 + k);
             for i in 0..g.kind.len() {
                 if g.kind[i] != 0 {
-                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                    let u = ((s >> 11) as f64 / (1u64 << 53) as f64) - 0.5;
+                    let u = rng.uniform() - 0.5;
                     grid.points[i] = g.point[i] + g.normal[i] * (0.6 * u);
                     grid.valid[i] = true;
                 }

@@ -1,32 +1,33 @@
 //! # process — the geometry pipeline
 //!
-//! Each stage is a plain function over plain data from [`rig`] (frames, a projector map, a range grid, a
-//! point cloud), usable without the command line; [`pipeline::process_scan`] chains them over a scan
-//! folder. The catalogue, with the thesis chapter each algorithm implements:
+//! Each stage is a plain function over plain data from [`rig`] (a projector map, a range grid, a
+//! point cloud, a mesh), usable without the command line; [`pipeline::stages`] holds the stage
+//! functions `scanrig process` and the single-stage subcommands share, and [`pipeline::process_scan`]
+//! chains them over a scan folder. The catalogue, by stage, with the thesis chapter each algorithm
+//! implements:
 //!
-//! - [`structured_light::decode_view`]: Gray code with inverses, shadow and contrast masks, N-step phase
-//!   shift unwrapped by the Gray code ([`gray_code`], [`phase_shift`]);
-//! - [`triangulate`]: camera ray against the projector's column surface (distortion-aware) or least-
-//!   squares ray–ray, and against laser planes — the general form of eq. 2.3 (ch. 2), which
-//!   [`triangulate::depth_eq_2_3`] states;
-//! - [`laser_line`]: sub-pixel laser stripe centres (Gaussian fit or centre of mass) with saturation and
-//!   double-peak rejection;
-//! - [`grid_normals`]: normals from range-grid neighbours, oriented toward the sensor;
-//! - [`placement`]: views into the object frame by turntable pose, cropped to the platter cylinder and
-//!   merged with view ids and confidences.
+//! - **decode** ([`structured_light`], [`gray_code`], [`phase_shift`], [`projector_map`]; the `decode`
+//!   crate, shared with calibration): Gray code with inverses, shadow and contrast masks, N-step
+//!   phase shift unwrapped by the Gray code;
+//! - **triangulate** ([`triangulate`]): camera ray against the projector's column surface
+//!   (distortion-aware) or least-squares ray–ray, and against laser planes ([`laser_line`]) — the
+//!   general form of eq. 2.3 (ch. 2), which [`triangulate::depth_eq_2_3`] states; [`grid_normals`]:
+//!   normals from range-grid neighbours, oriented toward the sensor;
+//! - **denoise** ([`denoise`]): per-scan non-local denoising of range grids, static and time-varying
+//!   (ch. 4, eqs. 4.3–4.6), with the bilateral filter in the same framework;
+//! - **merge** ([`merge`]): views into the object frame by turntable pose, cropped to the platter
+//!   cylinder and merged with view ids and confidences;
+//! - **register** ([`register`]): robust point-to-plane ICP (ch. 2.2, [`icp`]) and all views refined
+//!   together from their turntable poses ([`multiview`], [`register_scan`]);
+//! - **fuse** ([`fuse`]): anisotropic mean shift with adaptive neighbourhoods, clustering and outlier
+//!   removal (ch. 3, eqs. 3.2–3.10, [`mean_shift`]); consistent normal orientation ([`orient`]);
+//! - **reconstruct** ([`reconstruct`]): the global FFT method and AdFFT's partition of unity,
+//!   marching cubes (ch. 5);
+//! - **remesh** ([`remesh`]): harmonic and quasi-harmonic fields with line constraints, streamlines
+//!   of their gradient and co-gradient, and the quads between them (ch. 6).
 //!
-//! - [`denoise`]: per-scan non-local denoising of range grids, static and time-varying (ch. 4,
-//!   eqs. 4.3–4.6), with the bilateral filter in the same framework;
-//!
-//! - [`icp`]: robust point-to-plane ICP (ch. 2.2) with a shrinking correspondence distance, Tukey
-//!   weights and boundary and normal rejection; [`normals`]: PCA normals over k-d-tree neighbours;
-//!
-//! - [`multiview`], [`register_scan`]: all views refined together from their turntable poses;
-//! - [`mean_shift`]: fusion by anisotropic mean shift with adaptive neighbourhoods, clustering and
-//!   outlier removal (ch. 3, eqs. 3.2–3.10); [`orient`]: consistent normal orientation;
-//! - [`reconstruct`]: the global FFT method and AdFFT's partition of unity, marching cubes (ch. 5);
-//! - [`remesh`]: harmonic and quasi-harmonic fields with line constraints, streamlines of their
-//!   gradient and co-gradient, and the quads between them (ch. 6).
+//! Shared pieces: [`kd_tree`] (every neighbourhood query), [`normals`] (PCA normals),
+//! [`mesh_distance`] (the accuracy metric against a reference surface), [`preview`] (images).
 //!
 //! ```
 //! use process::triangulate::depth_eq_2_3;
@@ -36,30 +37,40 @@
 //! ```
 #![deny(missing_docs)]
 
-pub mod denoise;
-pub mod gray_code;
-pub mod grid_normals;
-pub mod icp;
-pub mod laser_line;
-pub mod mean_shift;
-pub mod multiview;
-pub mod normals;
-pub mod orient;
-pub mod phase_shift;
-pub mod pipeline;
-pub mod placement;
-pub mod preview;
-pub mod projector_map;
-pub mod reconstruct;
-pub mod register_scan;
-pub mod remesh;
-pub mod spatial_order;
-pub mod structured_light;
-pub mod triangulate;
+pub use decode::{gray_code, phase_shift, projector_map, structured_light};
 
+pub mod triangulate;
+pub use triangulate::{grid_normals, laser_line};
+
+pub mod denoise;
+
+pub mod merge;
+/// The merge stage under its old name.
+pub use merge as placement;
+
+pub mod register;
+pub use register::{icp, multiview, register_scan};
+
+pub mod fuse;
+pub use fuse::{mean_shift, orient, spatial_order};
+
+pub mod reconstruct;
+
+pub mod remesh;
+
+pub mod pipeline;
+
+pub mod kd_tree;
+pub mod mesh_distance;
+pub mod normals;
+pub mod preview;
+
+pub use pipeline::stages::StageError;
 pub use pipeline::{ProcessParams, ProcessReport, Stage, process_scan};
 pub use projector_map::ProjectorMap;
 pub use structured_light::{DecodeError, DecodeParams, decode_view};
+
+use std::path::PathBuf;
 
 /// What can go wrong in processing.
 #[derive(Debug, thiserror::Error)]
@@ -76,7 +87,57 @@ pub enum Error {
         /// Why.
         source: DecodeError,
     },
-    /// A scan or rig that cannot be processed as asked.
-    #[error("{0}")]
-    Setup(String),
+    /// A stage could not run on one view.
+    #[error("view {view}: {stage}: {source}")]
+    View {
+        /// The view.
+        view: usize,
+        /// The stage.
+        stage: Stage,
+        /// Why.
+        source: StageError,
+    },
+    /// A stage over the whole scan could not run.
+    #[error("{stage}: {source}")]
+    Stage {
+        /// The stage.
+        stage: Stage,
+        /// Why.
+        source: StageError,
+    },
+    /// A structured-light scan whose rig has no projector.
+    #[error("{}: a structured-light scan needs a rig with a [projector]", rig.display())]
+    NoProjector {
+        /// The rig file.
+        rig: PathBuf,
+    },
+    /// Registration from turntable poses without a turntable.
+    #[error("{}: registration from turntable poses needs a [turntable]", rig.display())]
+    NoTurntable {
+        /// The rig file.
+        rig: PathBuf,
+    },
+    /// A view lacks a frame the method needs.
+    #[error("view {view} has no {frame} frame")]
+    MissingFrame {
+        /// The view.
+        view: usize,
+        /// The frame's pattern name.
+        frame: &'static str,
+    },
+    /// Calibration captures given to `process`.
+    #[error("{}: a board capture is for `scanrig calibrate`, not `scanrig process`", scan.display())]
+    BoardCapture {
+        /// The scan folder.
+        scan: PathBuf,
+    },
+    /// A cached projector map of the wrong shape.
+    #[error("{}: not a projector map (an H × W × 3 array); rerun with --force", path.display())]
+    NotAProjectorMap {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The output folder is in use.
+    #[error(transparent)]
+    Lock(#[from] pipeline::lock::LockError),
 }

@@ -5,11 +5,9 @@
 
 use rig::Method;
 use sim::{Albedo, ScanOptions, Scene, SimConfig, simulate_scan};
-use std::path::Path;
 
 fn main() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs/sim-structured-light.toml");
-    let base = SimConfig::read(&path).unwrap();
+    let base = SimConfig::builtin("structured-light").unwrap();
     // 250 × 200 side vertices: 100,000 side triangles + 400 cap triangles.
     let mesh = sim::fluted_vase_tessellated(120.0, 250, 200);
     let out = std::env::temp_dir().join(format!("sim-bench-{}", std::process::id()));

@@ -167,7 +167,22 @@ fn invalid(field: &str, msg: impl Into<String>) -> ParseError {
     ParseError::new(Location::Field(field.into()), Problem::Invalid(msg.into()))
 }
 
+/// The built-in simulator rigs, by name: `structured-light` (1280×1024 camera, 1024×768 projector),
+/// `structured-light-640` (its 640×512 readout) and `laser` (Ciclop-like, two lasers at ±30°). The
+/// same files as `configs/sim-*.toml`, compiled in.
+pub const BUILTIN: [(&str, &str); 3] = [
+    ("structured-light", include_str!("../../configs/sim-structured-light.toml")),
+    ("structured-light-640", include_str!("../../configs/sim-structured-light-640.toml")),
+    ("laser", include_str!("../../configs/sim-laser.toml")),
+];
+
 impl SimConfig {
+    /// A built-in rig by name (see [`BUILTIN`]); `None` for another name.
+    pub fn builtin(name: &str) -> Option<SimConfig> {
+        let (_, text) = BUILTIN.iter().find(|(n, _)| *n == name)?;
+        Some(SimConfig::from_toml_str(text).expect("the built-in configs parse (tested)"))
+    }
+
     /// Parses a configuration from TOML text.
     pub fn from_toml_str(text: &str) -> Result<SimConfig, ParseError> {
         let t: SimToml = toml::from_str(text).map_err(|e| {
@@ -238,5 +253,16 @@ impl SimConfig {
         c.width = width;
         c.height = height;
         self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn every_builtin_config_parses() {
+        for (name, _) in super::BUILTIN {
+            assert!(super::SimConfig::builtin(name).is_some(), "{name}");
+        }
+        assert!(super::SimConfig::builtin("nonesuch").is_none());
     }
 }

@@ -4,9 +4,9 @@
 use rig::math::{Isometry3, Point2, Point3, Real, Vector3};
 use rig::npy;
 use rig::scan_folder::Manifest;
-use rig::{Method, Pattern, PolyMesh};
+use rig::{Method, Pattern};
 use sim::{Albedo, Mount, Part, PartKind, Rectangle, ScanOptions, Scene, SimConfig, Sphere, simulate_scan};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 fn config(name: &str) -> SimConfig {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../configs").join(name);
@@ -21,10 +21,9 @@ fn noiseless(name: &str, w: u32, h: u32) -> SimConfig {
     c
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("sim-accept-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
+/// A temporary folder, removed when the test ends (pass or fail).
+fn tmp(name: &str) -> fixtures::TempDir {
+    fixtures::temp_dir(&format!("sim-accept-{name}"))
 }
 
 fn fixed(kind: PartKind, surface: impl sim::Surface + 'static, pose: Isometry3) -> Part {
@@ -86,7 +85,6 @@ fn truth_depth_of_a_sphere_and_a_plane_is_analytic() {
         // Only a grazing ray at the sphere's rim may fall on the other side of a root rounding.
         assert!(covered > 5000 && missed <= 2, "{name}: {covered} pixels covered, {missed} missed");
         eprintln!("{name}: {covered} covered pixels within 1e-6 of the size");
-        std::fs::remove_dir_all(&out).unwrap();
     }
 }
 
@@ -133,22 +131,11 @@ fn gray_code_frames_of_a_plane_decode_to_the_projector_pixel_geometry_predicts()
     let frac = exact as Real / lit as Real;
     eprintln!("{exact} of {lit} lit pixels decode exactly ({:.3} %)", 100.0 * frac);
     assert!(lit > 100_000 && frac >= 0.99, "{frac}");
-    std::fs::remove_dir_all(&out).unwrap();
 }
 
 /// A closed box mesh of half-size `s` at `c`.
 fn box_mesh(c: Point3, s: Vector3) -> rig::TriMesh {
-    let v = (0..8)
-        .map(|i| {
-            c + Vector3::new(
-                if i & 1 == 0 { -s.x } else { s.x },
-                if i & 2 == 0 { -s.y } else { s.y },
-                if i & 4 == 0 { -s.z } else { s.z },
-            )
-        })
-        .collect();
-    let quads = [[0u32, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-    PolyMesh::from_faces(v, quads).triangulate()
+    fixtures::box_mesh(c, s)
 }
 
 /// Whether the segment p→q passes through the axis-aligned box (slab test, in the test itself).
@@ -226,7 +213,6 @@ fn shadows_of_a_box_are_dark_in_every_pattern_frame() {
         }
         eprintln!("{name}: {shadowed} shadowed wall pixels checked");
         assert!(shadowed > 500, "{name}: the box casts no shadow ({shadowed})");
-        std::fs::remove_dir_all(&out).unwrap();
     }
 }
 
@@ -267,9 +253,6 @@ fn same_seed_gives_identical_frames_another_seed_other_noise_same_truth() {
     for t in ["depth.npy", "projector.npy", "normal.npy", "lit.npy"] {
         let p = format!("truth/view_001/{t}");
         assert_eq!(std::fs::read(a.join(&p)).unwrap(), std::fs::read(c.join(&p)).unwrap(), "{t}");
-    }
-    for d in [a, b, c] {
-        std::fs::remove_dir_all(d).unwrap();
     }
 }
 
@@ -316,7 +299,6 @@ fn brightest_pixel_of_each_row_sits_on_the_truth_laser_line() {
     let frac = good as Real / rows as Real;
     eprintln!("{good} of {rows} rows: brightest pixel within 0.5 px of the truth line ({:.2} %)", 100.0 * frac);
     assert!(rows > 1000 && frac >= 0.99, "{frac}");
-    std::fs::remove_dir_all(&out).unwrap();
 }
 
 #[test]
@@ -349,5 +331,4 @@ fn board_truth_corners_sit_where_the_lit_frame_changes_colour() {
         }
     }
     assert!(checked > 200, "{checked} corners checked");
-    std::fs::remove_dir_all(&out).unwrap();
 }

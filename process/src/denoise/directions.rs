@@ -227,11 +227,8 @@ mod tests {
     /// including nearly flat ones such as a range grid's windows give.
     #[test]
     fn newton_smallest_eigenvector_matches_the_full_decomposition() {
-        let mut s = 12345u64;
-        let mut rnd = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+        let mut rng = fixtures::Lcg::new(12345);
+        let mut rnd = || rng.uniform() - 0.5;
         for k in 0..2000 {
             let flat = [0.1, 0.03, 1e-3, 1e-6][k % 4];
             let rot = rig::math::Rotation3::from_scaled_axis(Vector3::new(rnd(), rnd(), rnd()) * 6.0);
@@ -264,10 +261,9 @@ mod normal_tests {
     fn vectorised_normals_match_the_windows_eigenvectors() {
         let (w, h) = (37usize, 29usize);
         let mut g = RangeGrid::empty(w, h, Sensor::Center(Point3::new(0.0, 0.0, -500.0)));
-        let mut s = 99u64;
+        let mut rng = fixtures::Lcg::new(99);
         for i in 0..w * h {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            let noise = ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 0.05;
+            let noise = (rng.uniform() - 0.5) * 0.05;
             let (c, r) = ((i % w) as f64 * 0.5, (i / w) as f64 * 0.5);
             g.points[i] = Point3::new(c + 200.0, r - 100.0, 400.0 + 3.0 * (c * 0.3).sin() + r * 0.4 + noise);
             g.valid[i] = i % 13 != 5 && i % 17 != 2;

@@ -394,10 +394,9 @@ mod tests {
     fn frame_with(seed: u64, shift: f64, spacing: f64, noise_amplitude: f64, wave: f64) -> RangeGrid {
         let (w, h) = (41usize, 37usize);
         let mut g = RangeGrid::empty(w, h, Sensor::Center(Point3::origin()));
-        let mut s = seed;
+        let mut rng = fixtures::Lcg::new(seed);
         for i in 0..w * h {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            let noise = ((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * noise_amplitude;
+            let noise = (rng.uniform() - 0.5) * noise_amplitude;
             let (c, r) = ((i % w) as f64 * spacing, (i / w) as f64 * spacing);
             g.points[i] = Point3::new(
                 c - 10.0,

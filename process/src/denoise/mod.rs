@@ -96,7 +96,7 @@ impl Default for DenoiseParams {
 }
 
 /// What a denoising run did.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct DenoiseReport {
     /// Valid points filtered.
     pub points: usize,

@@ -92,7 +92,7 @@ impl Default for AdFftParams {
 }
 
 /// What AdFFT did.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct AdFftReport {
     /// Global grid points per axis.
     pub n: usize,

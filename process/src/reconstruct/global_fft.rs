@@ -32,7 +32,7 @@ pub struct FftParams {
     pub smoothing_cells: Real,
     /// Neighbours for each sample's area weight (the disc to its k-th neighbour); 0 weighs all alike.
     pub area_k: usize,
-    /// Refuse grids needing more than this many bytes.
+    /// Refuse grids needing more than this many bytes (default 8 GB).
     pub memory_budget: u64,
     /// Components with less than this fraction of the largest component's area are dropped (the
     /// blobs outliers and open scan borders leave).
@@ -46,14 +46,14 @@ impl Default for FftParams {
             padding: 0.05,
             smoothing_cells: 0.5,
             area_k: 8,
-            memory_budget: 8 << 30,
+            memory_budget: 8_000_000_000,
             min_component: 0.01,
         }
     }
 }
 
 /// What a reconstruction did.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct FftReport {
     /// Grid points per axis.
     pub n: usize,

@@ -329,13 +329,8 @@ mod tests {
         assert_eq!(topology(&m).genus(), Some(1));
         // A random field exercises every ambiguous face: many components, all closed and manifold
         // (the grid's border counts as outside).
-        let mut s = 3u64;
-        let noise: Vec<f32> = (0..20 * 20 * 20)
-            .map(|_| {
-                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-                (s >> 40) as f32 / (1u64 << 24) as f32 - 0.5
-            })
-            .collect();
+        let mut rng = fixtures::Lcg::new(3);
+        let noise: Vec<f32> = (0..20 * 20 * 20).map(|_| rng.centred_f32()).collect();
         let frame = GridFrame { dims: [20, 20, 20], origin: Point3::origin(), spacing: 1.0 };
         let m = marching_cubes(&frame, 0.0, |i, j, k| {
             let border = [i, j, k].iter().any(|&c| c == 0 || c == 19);

@@ -1,9 +1,12 @@
 //! Watertight surfaces from oriented points (thesis ch. 5): the global FFT method of Kazhdan (2005)
-//! and marching cubes.
+//! on one N³ grid ([`global_fft`]), AdFFT's local FFT solutions over an octree blended by a partition
+//! of unity (thesis 5.3, [`adfft`]), and marching cubes ([`marching_cubes`]); [`mesh_distance`] is the
+//! accuracy metric against a reference surface.
 
 pub mod adfft;
 pub mod fft3;
 pub mod global_fft;
 pub mod marching_cubes;
-pub mod mesh_distance;
+/// The accuracy metric, kept here under its old path.
+pub use crate::mesh_distance;
 pub mod prune;

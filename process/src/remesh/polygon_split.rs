@@ -9,7 +9,7 @@ use rig::math::Real;
 use std::collections::HashSet;
 
 /// How many polygons were split and into how many faces.
-#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
 pub struct SplitStats {
     /// Polygons of five or more corners before splitting.
     pub polygons: usize,

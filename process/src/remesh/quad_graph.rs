@@ -20,7 +20,7 @@ use std::collections::HashMap;
 use std::f64::consts::TAU;
 
 /// Counts from building the quad mesh.
-#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+#[derive(Debug, Clone, Copy, Default, serde::Serialize, serde::Deserialize)]
 pub struct GraphStats {
     /// Crossings found (after merging coincident ones).
     pub crossings: usize,

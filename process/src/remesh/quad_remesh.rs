@@ -31,7 +31,7 @@ use std::time::Instant;
 pub const DEFAULT_SPACING: Real = 0.01;
 
 /// Settings of [`remesh`].
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RemeshParams {
     /// Distance between neighbouring streamlines (the quad size); `None`: [`DEFAULT_SPACING`] of the
     /// bounding-box diagonal.
@@ -83,7 +83,7 @@ pub enum RemeshError {
 }
 
 /// Seconds per phase.
-#[derive(Debug, Clone, Copy, Default, Serialize)]
+#[derive(Debug, Clone, Copy, Default, Serialize, serde::Deserialize)]
 pub struct Timings {
     /// Constraints, half-split and the field solves.
     pub field: f64,
@@ -96,7 +96,7 @@ pub struct Timings {
 }
 
 /// What [`remesh`] did and how good the result is.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct RemeshReport {
     /// Triangles in.
     pub input_faces: usize,

@@ -12,7 +12,7 @@ use std::collections::HashMap;
 pub const ANGLE_BINS: [Real; 6] = [5.0, 10.0, 20.0, 30.0, 45.0, 90.0];
 
 /// The quality report of a remesh.
-#[derive(Debug, Clone, Default, Serialize)]
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
 pub struct Quality {
     /// Faces in the output.
     pub faces: usize,

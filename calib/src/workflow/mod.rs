@@ -1,0 +1,331 @@
+//! A whole rig from calibration captures: the board found in every lit frame, then each step the
+//! captures allow — camera intrinsics first, then the turntable axis, the laser planes and the
+//! projector — merged into a starting rig. What `scanrig calibrate` runs; the binary only parses
+//! arguments, shows progress and writes the files.
+
+pub mod captures;
+mod steps;
+
+pub use captures::{Orientation, Position, load};
+
+use crate::{CalibError, CameraOptions, Gray, find_corners};
+use rig::math::{Point3, Real};
+use rig::{Laser, PinholeCamera, Projector, Rig};
+use serde_json::{Value, json};
+use std::path::PathBuf;
+use steps::{Board, Found};
+
+/// A calibration step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Step {
+    /// Camera intrinsics and distortion.
+    Camera,
+    /// The projector's lens and pose.
+    Projector,
+    /// Laser planes.
+    Laser,
+    /// The turntable axis.
+    Turntable,
+}
+
+impl std::fmt::Display for Step {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Step::Camera => "camera",
+            Step::Projector => "projector",
+            Step::Laser => "laser",
+            Step::Turntable => "turntable",
+        })
+    }
+}
+
+/// What to calibrate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Target {
+    /// One step (the camera from `base` where it is not this one).
+    Only(Step),
+    /// Every step the captures allow, the camera first.
+    All,
+}
+
+/// Why a calibration failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum WorkflowError {
+    /// Reading a file.
+    #[error(transparent)]
+    File(#[from] rig::Error),
+    /// An image folder without images.
+    #[error("{}: no scan.json and no PNG or JPEG images", path.display())]
+    NoImages {
+        /// The folder or pattern.
+        path: PathBuf,
+    },
+    /// A capture folder without a usable view.
+    #[error("{}: the capture folder has no complete view with a lit (white) frame", folder.display())]
+    NoLitFrame {
+        /// The folder.
+        folder: PathBuf,
+    },
+    /// Images of different sizes.
+    #[error(
+        "{} is {}x{} but {} is {}x{}: one camera's images must share one size",
+        image.display(), size.0, size.1, first.display(), first_size.0, first_size.1
+    )]
+    SizeMismatch {
+        /// The odd image.
+        image: PathBuf,
+        /// Its size.
+        size: (u32, u32),
+        /// The image it was compared with.
+        first: PathBuf,
+        /// That one's size.
+        first_size: (u32, u32),
+    },
+    /// The board was found nowhere.
+    #[error(
+        "no {cols}x{rows} board found in any of the {images} images ({files}); check --board (inner corners) \
+         and --transpose"
+    )]
+    NoBoard {
+        /// Inner corners across.
+        cols: usize,
+        /// Inner corners down.
+        rows: usize,
+        /// Images looked at.
+        images: usize,
+        /// Some of them, named.
+        files: String,
+    },
+    /// A step's estimate failed.
+    #[error("{step}: {source} ({files})")]
+    Step {
+        /// The step.
+        step: Step,
+        /// Why.
+        source: CalibError,
+        /// The images it used, named.
+        files: String,
+    },
+    /// A step without the frames it needs.
+    #[error("{step}: no {step} frames among the positions where the board was found")]
+    NoFrames {
+        /// The step.
+        step: Step,
+    },
+    /// Too few turntable views for the axis.
+    #[error("turntable: the board was found in {found} view(s) on the turntable; at least 3 are needed ({files})")]
+    TooFewTurntableViews {
+        /// Views found.
+        found: usize,
+        /// The images, named.
+        files: String,
+    },
+    /// A board whose pose cannot be solved.
+    #[error("{}: no board pose from its corners", image.display())]
+    NoBoardPose {
+        /// Its lit frame.
+        image: PathBuf,
+    },
+    /// Structured light that does not decode.
+    #[error("{}: {source}", image.display())]
+    Decode {
+        /// The position's lit frame.
+        image: PathBuf,
+        /// Why.
+        source: decode::DecodeError,
+    },
+    /// A step that needs a calibrated camera without one.
+    #[error("{step} calibration needs the camera: give --rig RIG, or calibrate `camera` or `all` first")]
+    NeedsCamera {
+        /// The step.
+        step: Step,
+    },
+    /// The starting rig's camera does not match the images.
+    #[error("the rig's camera is {}x{} but the images are {}x{}", rig.0, rig.1, images.0, images.1)]
+    CameraSize {
+        /// The rig's camera size.
+        rig: (u32, u32),
+        /// The images' size.
+        images: (u32, u32),
+    },
+    /// The projector's size is unknown.
+    #[error("projector: give its resolution with --projector WIDTHxHEIGHT")]
+    ProjectorSize,
+    /// The board's description cannot be right.
+    #[error("--board needs at least 2x2 inner corners and --square a positive size")]
+    BadBoard,
+}
+
+/// The chessboard: inner corners across and down, square size.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BoardSpec {
+    /// Inner corners across.
+    pub cols: usize,
+    /// Inner corners down.
+    pub rows: usize,
+    /// Square size, mm.
+    pub square_mm: Real,
+}
+
+/// Everything [`calibrate_rig`] can be told.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RigCalibParams {
+    /// What to calibrate.
+    pub target: Target,
+    /// The board.
+    pub board: BoardSpec,
+    /// How images are turned before use.
+    pub orientation: Orientation,
+    /// Which lens terms the camera and projector fits may move.
+    pub lens: CameraOptions,
+    /// How high the board's lowest inner corners stand above the platter (mm); `None`: two squares.
+    pub corner_height_mm: Option<Real>,
+    /// The projector's resolution; `None`: the base rig's projector.
+    pub projector_size: Option<(u32, u32)>,
+}
+
+/// The report: one JSON object with a section per step that ran (`camera`, `turntable`, `lasers`,
+/// `projector`), `not_found` (images without the board, and why) and `board_found`.
+pub type CalibReport = serde_json::Map<String, Value>;
+
+/// A rig of just a camera, for a rig file that does not exist yet.
+pub fn camera_only(name: &str, camera: PinholeCamera) -> Rig {
+    Rig { name: name.into(), camera, projector: None, lasers: Vec::new(), turntable: None, platter_radius_mm: None }
+}
+
+/// Calibrates from `positions` (see [`load`]), starting from `base` (kept where not calibrated; its
+/// camera serves the other steps when the camera is not calibrated too). `progress(what, done,
+/// total)` as images are searched and decoded.
+pub fn calibrate_rig(
+    positions: &[Position],
+    base: Option<&Rig>,
+    params: &RigCalibParams,
+    mut progress: impl FnMut(&str, usize, usize),
+) -> Result<(Rig, CalibReport), WorkflowError> {
+    let BoardSpec { cols, rows, square_mm } = params.board;
+    if cols < 2 || rows < 2 || !(square_mm > 0.0 && square_mm.is_finite()) {
+        return Err(WorkflowError::BadBoard);
+    }
+    let board = Board {
+        cols,
+        rows,
+        object: (0..rows)
+            .flat_map(|j| (0..cols).map(move |i| Point3::new(i as Real * square_mm, j as Real * square_mm, 0.0)))
+            .collect(),
+    };
+    let turn = params.orientation;
+    // The board in every lit frame; all frames of one camera share a size.
+    let mut size: Option<(u32, u32, PathBuf)> = None;
+    let (mut found, mut missed) = (Vec::new(), Vec::new());
+    for (k, p) in positions.iter().enumerate() {
+        progress("looking for the board", k + 1, positions.len());
+        let img = turn.read(&p.lit)?;
+        match &size {
+            None => size = Some((img.width, img.height, p.lit.clone())),
+            Some((w, h, first)) if (*w, *h) != (img.width, img.height) => {
+                return Err(WorkflowError::SizeMismatch {
+                    image: p.lit.clone(),
+                    size: (img.width, img.height),
+                    first: first.clone(),
+                    first_size: (*w, *h),
+                });
+            }
+            _ => {}
+        }
+        match find_corners(&Gray::from_image(&img), board.cols, board.rows) {
+            Ok(corners) => found.push(Found { position: p, corners }),
+            Err(e) => missed.push((p.lit.clone(), e.to_string())),
+        }
+    }
+    let Some((width, height, _)) = size else {
+        return Err(WorkflowError::NoBoard { cols, rows, images: 0, files: "none".into() });
+    };
+    if found.is_empty() {
+        return Err(WorkflowError::NoBoard {
+            cols,
+            rows,
+            images: positions.len(),
+            files: steps::some_files(missed.iter().map(|m| &m.0)),
+        });
+    }
+
+    let wants = |s: Step| params.target == Target::All || params.target == Target::Only(s);
+    let mut report = CalibReport::new();
+    let camera = if wants(Step::Camera) {
+        let (camera, r) =
+            steps::camera(&found, &board, (width, height), params.lens).map_err(|e| with_missed(e, &missed))?;
+        report.insert("camera".into(), r);
+        camera
+    } else {
+        let step = match params.target {
+            Target::Only(s) => s,
+            Target::All => Step::Camera,
+        };
+        let rig = base.ok_or(WorkflowError::NeedsCamera { step })?;
+        if (rig.camera.width, rig.camera.height) != (width, height) {
+            return Err(WorkflowError::CameraSize {
+                rig: (rig.camera.width, rig.camera.height),
+                images: (width, height),
+            });
+        }
+        rig.camera
+    };
+    let mut rig = base.cloned().unwrap_or_else(|| camera_only("calibrated rig", camera));
+    rig.camera = camera;
+
+    let on_turntable = found.iter().filter(|f| f.position.angle_deg.is_some()).count();
+    let mut sweep_poses = vec![None; found.len()];
+    if params.target == Target::Only(Step::Turntable) || (params.target == Target::All && on_turntable >= 3) {
+        let height = params.corner_height_mm.unwrap_or(2.0 * square_mm);
+        let (axis, poses, r) = steps::turntable(&found, &board, &camera, height)?;
+        rig.turntable = Some(axis);
+        sweep_poses = poses;
+        report.insert("turntable".into(), r);
+    }
+    let has_lasers = found.iter().any(|f| !f.position.lasers.is_empty());
+    if params.target == Target::Only(Step::Laser) || (params.target == Target::All && has_lasers) {
+        let (planes, r) = steps::lasers(&found, &board, &camera, &sweep_poses, turn)?;
+        for (i, plane) in planes.into_iter().enumerate() {
+            match rig.lasers.get_mut(i) {
+                Some(l) => l.plane = plane,
+                None => rig.lasers.push(Laser { name: format!("laser {i}"), plane }),
+            }
+        }
+        report.insert("lasers".into(), r);
+    }
+    let has_structured = found.iter().any(|f| !f.position.structured.is_empty());
+    if params.target == Target::Only(Step::Projector) || (params.target == Target::All && has_structured) {
+        let size = params
+            .projector_size
+            .or_else(|| base.and_then(|r| r.projector.as_ref()).map(|p| (p.lens.width, p.lens.height)))
+            .ok_or(WorkflowError::ProjectorSize)?;
+        let (lens, from_camera, r) = steps::projector(&found, &board, &camera, size, turn, params.lens, |d, t| {
+            progress("decoding structured light", d, t)
+        })?;
+        let gamma = rig.projector.as_ref().map_or(1.0, |p| p.gamma);
+        rig.projector = Some(Projector { lens, from_camera, gamma });
+        report.insert("projector".into(), r);
+    }
+    report.insert(
+        "not_found".into(),
+        missed.iter().map(|(f, why)| json!({"image": f, "why": why})).collect::<Vec<_>>().into(),
+    );
+    report.insert("board_found".into(), json!({"found": found.len(), "of": positions.len()}));
+    Ok((rig, report))
+}
+
+/// A camera step's failure, with the images where the board was not found named: the usual cause.
+fn with_missed(e: WorkflowError, missed: &[(PathBuf, String)]) -> WorkflowError {
+    match e {
+        WorkflowError::Step { step, source, files } if !missed.is_empty() => {
+            let names: Vec<String> = missed.iter().take(5).map(|(f, why)| format!("{}: {why}", f.display())).collect();
+            WorkflowError::Step {
+                step,
+                source,
+                files: format!("{files}; the board was not found in {} image(s): {}", missed.len(), names.join("; ")),
+            }
+        }
+        e => e,
+    }
+}

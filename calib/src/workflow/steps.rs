@@ -1,0 +1,248 @@
+//! The calibration steps, each from the board positions whose corners were found: camera
+//! intrinsics, the turntable axis, laser planes and the projector.
+
+use super::captures::{Orientation, Position};
+use super::{Step, WorkflowError as E};
+use crate::laser_plane::on_even_print;
+use crate::turntable_axis::board_pose;
+use crate::{
+    BoardRegion, CameraOptions, LaserView, StereoView, SweepView, View, calibrate_camera, calibrate_projector,
+    fit_axis, fit_laser_plane, fit_sweep, projector_corners,
+};
+use decode::laser_line::{LaserParams, detect_line_within};
+use decode::structured_light::{DecodeParams, decode_view};
+use rig::math::{Isometry3, Point2, Point3, Real};
+use rig::{LaserPlane, PinholeCamera, TurntableAxis};
+use serde_json::{Value, json};
+use std::path::PathBuf;
+
+/// A position whose board was found: its index in the capture list and its corners.
+pub struct Found<'a> {
+    pub position: &'a Position,
+    pub corners: Vec<Point2>,
+}
+
+/// The board: its corners in its own frame and its corner grid.
+pub struct Board {
+    pub cols: usize,
+    pub rows: usize,
+    pub object: Vec<Point3>,
+}
+
+/// Names a few files for an error message.
+pub fn some_files<'a>(files: impl Iterator<Item = &'a PathBuf>) -> String {
+    let all: Vec<String> = files.map(|f| f.display().to_string()).collect();
+    match all.len() {
+        0 => "none".into(),
+        n if n <= 4 => all.join(", "),
+        n => format!("{}, … ({n} in all)", all[..3].join(", ")),
+    }
+}
+
+pub fn camera(
+    found: &[Found],
+    board: &Board,
+    size: (u32, u32),
+    opts: CameraOptions,
+) -> Result<(PinholeCamera, Value), E> {
+    let views: Vec<View> =
+        found.iter().map(|f| View { object: board.object.clone(), image: f.corners.clone() }).collect();
+    let c = calibrate_camera(&views, size.0, size.1, opts).map_err(|source| E::Step {
+        step: Step::Camera,
+        source,
+        files: format!("images with the board: {}", some_files(found.iter().map(|f| &f.position.lit))),
+    })?;
+    let report = json!({
+        "width": size.0, "height": size.1,
+        "fx": c.camera.fx, "fy": c.camera.fy, "cx": c.camera.cx, "cy": c.camera.cy,
+        "distortion": c.camera.distortion.to_opencv(),
+        "rms_px": c.rms,
+        "views": found.iter().zip(&c.view_rms).map(|(f, r)| json!({"image": f.position.lit, "rms_px": r})).collect::<Vec<_>>(),
+        "outlier_views": c.outlier_views.iter().map(|&v| &found[v].position.lit).collect::<Vec<_>>(),
+        "iterations": c.iterations,
+    });
+    Ok((c.camera, report))
+}
+
+/// The turntable axis: from the views with recorded angles adjusted as one sweep, or without angles
+/// (an image folder) from the corners' circles. Also returns the sweep's board poses by position
+/// (for the laser step).
+pub fn turntable(
+    found: &[Found],
+    board: &Board,
+    camera: &PinholeCamera,
+    corner_height_mm: Real,
+) -> Result<(TurntableAxis, Vec<Option<Isometry3>>, Value), E> {
+    let swept: Vec<usize> = (0..found.len()).filter(|&k| found[k].position.angle_deg.is_some()).collect();
+    let names = || some_files(found.iter().map(|f| &f.position.lit));
+    if swept.len() >= 3 {
+        let views: Vec<SweepView> = swept
+            .iter()
+            .map(|&k| SweepView { angle_deg: found[k].position.angle_deg.unwrap(), corners: found[k].corners.clone() })
+            .collect();
+        let fit = fit_sweep(camera, &board.object, &views, corner_height_mm).map_err(|source| E::Step {
+            step: Step::Turntable,
+            source,
+            files: names(),
+        })?;
+        let mut poses = vec![None; found.len()];
+        for (&k, p) in swept.iter().zip(&fit.poses) {
+            poses[k] = Some(*p);
+        }
+        let report = json!({
+            "method": "sweep adjusted as one turn about one axis",
+            "point_mm": fit.axis.point.coords.as_slice(), "direction": fit.axis.direction.as_slice(),
+            "rms_px": fit.rms_px, "views": swept.len(), "corner_height_mm": corner_height_mm,
+        });
+        return Ok((fit.axis, poses, report));
+    }
+    if found.iter().any(|f| f.position.angle_deg.is_some()) || found.len() < 3 {
+        return Err(E::TooFewTurntableViews { found: swept.len(), files: names() });
+    }
+    // An image folder: every view is taken to be on the turntable, angles unknown.
+    let corners: Vec<Vec<Point2>> = found.iter().map(|f| f.corners.clone()).collect();
+    let fit = fit_axis(camera, &board.object, &corners, corner_height_mm).map_err(|source| E::Step {
+        step: Step::Turntable,
+        source,
+        files: names(),
+    })?;
+    let report = json!({
+        "method": "corner circles (no recorded angles)",
+        "point_mm": fit.axis.point.coords.as_slice(), "direction": fit.axis.direction.as_slice(),
+        "circle_rms_mm": fit.circle_rms_mm, "views": fit.views, "corner_height_mm": corner_height_mm,
+    });
+    Ok((fit.axis, vec![None; found.len()], report))
+}
+
+/// Every laser's plane from the positions with laser frames; `poses` are sweep poses where known.
+pub fn lasers(
+    found: &[Found],
+    board: &Board,
+    camera: &PinholeCamera,
+    poses: &[Option<Isometry3>],
+    turn: Orientation,
+) -> Result<(Vec<LaserPlane>, Value), E> {
+    let count = found.iter().flat_map(|f| f.position.lasers.iter().map(|l| l.0 + 1)).max().unwrap_or(0);
+    if count == 0 {
+        return Err(E::NoFrames { step: Step::Laser });
+    }
+    let mut views: Vec<Vec<LaserView>> = vec![Vec::new(); count];
+    let mut frames: Vec<Vec<PathBuf>> = vec![Vec::new(); count];
+    for (k, f) in found.iter().enumerate() {
+        if f.position.lasers.is_empty() {
+            continue;
+        }
+        let pose = match poses.get(k).copied().flatten() {
+            Some(p) => p,
+            None => board_pose(camera, &board.object, &f.corners)
+                .ok_or_else(|| E::NoBoardPose { image: f.position.lit.clone() })?,
+        };
+        let lit = turn.read(&f.position.lit)?;
+        let same_size = |img: rig::image::Image8, path: &PathBuf| -> Result<rig::image::Image8, E> {
+            if (img.width, img.height) != (lit.width, lit.height) {
+                return Err(E::SizeMismatch {
+                    image: path.clone(),
+                    size: (img.width, img.height),
+                    first: f.position.lit.clone(),
+                    first_size: (lit.width, lit.height),
+                });
+            }
+            Ok(img)
+        };
+        let images: Vec<(usize, rig::image::Image8)> =
+            f.position.lasers.iter().map(|(i, p)| Ok((*i, same_size(turn.read(p)?, p)?))).collect::<Result<_, E>>()?;
+        // The background: the laser-off frame, or else the darker of the laser frames at each pixel.
+        let off = match &f.position.laser_off {
+            Some(p) => same_size(turn.read(p)?, p)?,
+            None => {
+                let mut off = images[0].1.clone();
+                for (_, img) in &images[1..] {
+                    off.data.iter_mut().zip(&img.data).for_each(|(o, &v)| *o = (*o).min(v));
+                }
+                if images.len() == 1 {
+                    off.data.fill(0);
+                }
+                off
+            }
+        };
+        let region = BoardRegion::new(&f.corners, board.cols, board.rows).expect("a full board's corners");
+        for ((i, on), (_, path)) in images.iter().zip(&f.position.lasers) {
+            let (peaks, _) = detect_line_within(on, &off, &LaserParams::default(), |x, y| {
+                region.contains(Point2::new(x as Real, y as Real))
+            });
+            let pixels: Vec<Point2> = peaks
+                .iter()
+                .map(|p| Point2::new(p.col, p.row as Real))
+                .filter(|&p| on_even_print(&lit, p, 6))
+                .collect();
+            views[*i].push(LaserView { pose, pixels });
+            frames[*i].push(path.clone());
+        }
+    }
+    let mut planes = Vec::new();
+    let mut report = Vec::new();
+    for (i, v) in views.iter().enumerate() {
+        let fit = fit_laser_plane(camera, v, 0.5).map_err(|source| E::Step {
+            step: Step::Laser,
+            source,
+            files: format!("laser {i}'s frames: {}", some_files(frames[i].iter())),
+        })?;
+        report.push(json!({
+            "laser": i, "normal": fit.plane.normal.as_slice(), "distance_mm": fit.plane.distance,
+            "spread_rms_mm": fit.rms_mm, "spread_max_mm": fit.max_mm,
+            "points": fit.points, "inliers": fit.inliers, "views": fit.views,
+        }));
+        planes.push(fit.plane);
+    }
+    Ok((planes, Value::Array(report)))
+}
+
+/// The projector from the positions with structured-light frames.
+pub fn projector(
+    found: &[Found],
+    board: &Board,
+    camera: &PinholeCamera,
+    size: (u32, u32),
+    turn: Orientation,
+    opts: CameraOptions,
+    mut progress: impl FnMut(usize, usize),
+) -> Result<(PinholeCamera, Isometry3, Value), E> {
+    let with: Vec<&Found> = found.iter().filter(|f| !f.position.structured.is_empty()).collect();
+    if with.is_empty() {
+        return Err(E::NoFrames { step: Step::Projector });
+    }
+    // A window a little under a square wide: the four squares around a corner, no farther.
+    let spacing = (with[0].corners[1] - with[0].corners[0]).norm();
+    let half = ((0.4 * spacing) as usize).clamp(4, 40);
+    let mut views = Vec::new();
+    for (k, f) in with.iter().enumerate() {
+        progress(k + 1, with.len());
+        let images: Vec<(rig::Pattern, rig::image::Image8)> =
+            f.position.structured.iter().map(|(p, path)| Ok((*p, turn.read(path)?))).collect::<Result<_, E>>()?;
+        let frames: Vec<(rig::Pattern, &rig::image::Image8)> = images.iter().map(|(p, i)| (*p, i)).collect();
+        let (map, _) = decode_view(&frames, size.0, size.1, &DecodeParams::default())
+            .map_err(|source| E::Decode { image: f.position.lit.clone(), source })?;
+        views.push(StereoView {
+            object: board.object.clone(),
+            camera: f.corners.clone(),
+            projector: projector_corners(&f.corners, &map, half),
+        });
+    }
+    let p = calibrate_projector(camera, &views, size.0, size.1, opts).map_err(|source| E::Step {
+        step: Step::Projector,
+        source,
+        files: some_files(with.iter().map(|f| &f.position.lit)),
+    })?;
+    let report = json!({
+        "width": size.0, "height": size.1,
+        "fx": p.lens.fx, "fy": p.lens.fy, "cx": p.lens.cx, "cy": p.lens.cy,
+        "distortion": p.lens.distortion.to_opencv(),
+        "rotation_vector": p.from_camera.rotation.scaled_axis().as_slice(),
+        "translation_mm": p.from_camera.translation.vector.as_slice(),
+        "projector_rms_px": p.projector_rms, "stereo_rms_px": p.stereo_rms,
+        "stereo_camera_rms_px": p.stereo_camera_rms, "stereo_projector_rms_px": p.stereo_projector_rms,
+        "views": p.views, "corners_used": p.corners_used, "corners_skipped": p.corners_skipped,
+        "window_px": 2 * half + 1,
+    });
+    Ok((p.lens, p.from_camera, report))
+}

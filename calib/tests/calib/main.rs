@@ -1,0 +1,6 @@
+//! Calibration against simulated and real captures, in one binary.
+
+mod fabscanpi;
+mod laser_sim;
+mod structured_light_sim;
+mod turntable_sim;

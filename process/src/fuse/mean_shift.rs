@@ -1,0 +1,310 @@
+//! Mean-shift fusion of a registered point cloud (thesis ch. 3): noise removed by moving every sample
+//! to a maximum of a likelihood built from anisotropic local kernels, samples that reach the same
+//! maximum clustered into one representative, and outliers removed by their low density.
+//!
+//! - Kernels (eqs. 3.2–3.3, adaptive size of section 3.2.3): over each sample's k nearest neighbours,
+//!   the χ-weighted centre `c_i` and covariance `C_i`; its eigenvectors give the fitting plane's normal
+//!   `n_i` (smallest eigenvalue) and the ellipsoid `E_i` the anisotropic Gaussian Φ_i follows.
+//! - Likelihood (eqs. 3.4–3.5): `L(x) = Σ w_i·Φ_i(x − c_i)·(h² − ((x − c_i)·n_i)²)`, `w_i` the sample's
+//!   confidence.
+//! - Iteration (eqs. 3.6–3.9, with the adaptive step of eq. 3.7): `p ← p − m`, `m = Σ w_j Φ_j
+//!   ((p − c_j)·n_j) n_j / Σ w_j Φ_j`, stopping by eq. 3.10 when a step is below 1e-4·h.
+//! - Outliers and clustering: a sample where the normalised kernel density at its *start* is a small
+//!   fraction of the median is removed before clustering (the adaptive step would otherwise carry it
+//!   onto the surface); the rest that end within `merge` of each other become one point, and a
+//!   representative whose k-th neighbour is far farther than typical is an outlier too (the isolated
+//!   maxima of section 3.3.1).
+
+use crate::normals::PointTree;
+use rayon::prelude::*;
+use rig::PointCloud;
+use rig::math::{Matrix3, Point3, Real, Vector3};
+use serde::Serialize;
+use std::collections::HashMap;
+
+/// Mean-shift settings; lengths in the cloud's units.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MeanShiftParams {
+    /// Neighbours per kernel (the adaptive kernel size of section 3.2.3).
+    pub k: usize,
+    /// Kernels consulted per step (the nearest kernel centres to the moving sample).
+    pub kernels_per_step: usize,
+    /// The anisotropic Gaussian's extent in standard deviations of the kernel's point distribution.
+    pub kernel_scale: Real,
+    /// Floor on the ellipsoid's smallest axis relative to its largest, so flat kernels stay invertible.
+    pub min_axis_ratio: Real,
+    /// Most iterations per sample.
+    pub max_iterations: usize,
+    /// Samples ending closer than this fraction of their kernel size are one cluster.
+    pub merge: Real,
+    /// A sample whose kernel density `Σ w_j Φ_j / √det C_j` at its starting position is below this
+    /// fraction of the median is an outlier: no surface kernel reaches it, and the wide kernels built
+    /// over scattered outliers are thin densities.
+    pub min_support: Real,
+    /// A representative whose distance to its `density_k`-th neighbour exceeds `outlier_factor` times
+    /// the median such distance is an outlier too (isolated maxima, section 3.3.1).
+    pub outlier_factor: Real,
+    /// Neighbour rank for the density test.
+    pub density_k: usize,
+}
+
+impl Default for MeanShiftParams {
+    fn default() -> Self {
+        MeanShiftParams {
+            k: 64,
+            kernels_per_step: 16,
+            kernel_scale: 2.25,
+            min_axis_ratio: 0.05,
+            max_iterations: 30,
+            merge: 0.05,
+            min_support: 0.05,
+            outlier_factor: 3.0,
+            density_k: 8,
+        }
+    }
+}
+
+/// What fusion did.
+#[derive(Debug, Clone, Default, Serialize, serde::Deserialize)]
+pub struct MeanShiftReport {
+    /// Samples in.
+    pub points_in: usize,
+    /// Clusters (representatives) before outlier removal.
+    pub clusters: usize,
+    /// Samples removed before clustering: unsupported, or off their neighbours' plane.
+    pub strays: usize,
+    /// Representatives removed as isolated (low density of representatives).
+    pub outliers_removed: usize,
+    /// Points out.
+    pub points_out: usize,
+    /// Mean iterations per sample.
+    pub mean_iterations: Real,
+    /// Samples that stopped at `max_iterations` without meeting eq. 3.10.
+    pub hit_iteration_limit: usize,
+    /// Seconds building kernels.
+    pub seconds_kernels: Real,
+    /// Seconds iterating.
+    pub seconds_shift: Real,
+    /// Seconds clustering and removing outliers.
+    pub seconds_cluster: Real,
+}
+
+/// One anisotropic kernel: centre, normal, inverse of the scaled covariance, and size h.
+#[derive(Debug, Clone, Copy)]
+struct Kernel {
+    centre: Point3,
+    normal: Vector3,
+    inv: Matrix3,
+    h: Real,
+    /// 1/√det of the kernel's covariance (up to a constant): Φ's peak as a probability density.
+    density: Real,
+}
+
+fn build_kernels(points: &[Point3], tree: &PointTree, p: &MeanShiftParams) -> Vec<Kernel> {
+    points
+        .par_iter()
+        .map(|pi| {
+            let nb = tree.nearest_k(pi, p.k);
+            // χ: a Gaussian of the distance to p_i over the neighbourhood's radius (eq. 3.2).
+            let radius = (points[*nb.last().unwrap()] - pi).norm().max(1e-12);
+            let chi: Vec<Real> = nb.iter().map(|&j| (-((points[j] - pi).norm() / radius).powi(2)).exp()).collect();
+            let sw: Real = chi.iter().sum();
+            let centre = nb.iter().zip(&chi).fold(Vector3::zeros(), |a, (&j, w)| a + points[j].coords * *w) / sw;
+            let cov = nb.iter().zip(&chi).fold(Matrix3::zeros(), |a, (&j, w)| {
+                let d = points[j].coords - centre;
+                a + d * d.transpose() * *w
+            }) / sw;
+            let eig = cov.symmetric_eigen();
+            let order = {
+                let mut o = [0usize, 1, 2];
+                o.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+                o
+            };
+            let largest = eig.eigenvalues[order[0]].max(1e-24);
+            let mut inv = Matrix3::zeros();
+            // The Gaussian's normalisation 1/√det: a kernel spread over a big blob of scattered points
+            // (outliers' kernels) is a far lower density than a flat surface kernel of the same peak.
+            let mut density = 1.0;
+            for &l in &order {
+                let v = eig.eigenvectors.column(l).into_owned();
+                let lambda = eig.eigenvalues[l].max(largest * p.min_axis_ratio * p.min_axis_ratio);
+                inv += v * v.transpose() / (lambda * p.kernel_scale * p.kernel_scale);
+                density /= lambda.sqrt() * p.kernel_scale;
+            }
+            let normal = eig.eigenvectors.column(order[2]).into_owned();
+            let h = p.kernel_scale * largest.sqrt();
+            Kernel { centre: Point3::from(centre), normal, inv, h, density }
+        })
+        .collect()
+}
+
+/// The outcome of fusion.
+#[derive(Debug, Clone)]
+pub struct MeanShiftResult {
+    /// The filtered, clustered, outlier-free points with normals (the kernel normal at each
+    /// representative, oriented like the input normals where the input has them).
+    pub cloud: PointCloud,
+    /// Per input sample: whether the cluster it converged to was kept (false: removed as an outlier).
+    pub kept: Vec<bool>,
+    /// What was done.
+    pub report: MeanShiftReport,
+}
+
+/// Fuses a cloud (see the module doc).
+pub fn mean_shift(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResult {
+    // Every step is per-point neighbourhood work: in Morton order it stays cache-local, so time
+    // grows linearly with the cloud (BENCHMARKS.md, mean shift scaling).
+    let order = crate::spatial_order::morton_order(&cloud.positions);
+    let mut result = mean_shift_in_order(&cloud.select(&order), params);
+    let mut kept = vec![false; cloud.len()];
+    for (&i, &k) in order.iter().zip(&result.kept) {
+        kept[i] = k;
+    }
+    result.kept = kept;
+    result
+}
+
+fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResult {
+    let mut report = MeanShiftReport { points_in: cloud.len(), ..Default::default() };
+    if cloud.len() < params.k.max(params.density_k) + 1 {
+        report.points_out = cloud.len();
+        return MeanShiftResult { cloud: cloud.clone(), kept: vec![true; cloud.len()], report };
+    }
+    let t = std::time::Instant::now();
+    let tree = PointTree::new(&cloud.positions);
+    let kernels = build_kernels(&cloud.positions, &tree, params);
+    let centres: Vec<Point3> = kernels.iter().map(|k| k.centre).collect();
+    let centre_tree = PointTree::new(&centres);
+    let weight = |j: usize| cloud.confidence.as_ref().map_or(1.0, |c| c[j] as Real);
+    report.seconds_kernels = t.elapsed().as_secs_f64();
+
+    let t = std::time::Instant::now();
+    // Eqs. 3.8–3.10 for every sample independently.
+    let moved: Vec<(Point3, usize, usize, Real)> = (0..cloud.len())
+        .into_par_iter()
+        .map(|i| {
+            let mut p = cloud.positions[i];
+            let h = kernels[i].h;
+            // The kernels are frozen per sample (as eq. 3.6 freezes Φ): re-choosing them every step makes
+            // the field discontinuous and the samples oscillate instead of converging.
+            let near = centre_tree.nearest_k(&p, params.kernels_per_step);
+            let nearest = near[0];
+            // The support at the sample's own position: eq. 3.7's adaptive step would carry even an
+            // unsupported outlier onto the surface in one step, so support is judged before moving.
+            let mut support = None;
+            for it in 0..params.max_iterations {
+                let mut m = Vector3::zeros();
+                let mut den = 0.0;
+                let mut pdf = 0.0;
+                for &j in &near {
+                    let k = &kernels[j];
+                    let y = p - k.centre;
+                    let phi = weight(j) * (-0.5 * y.dot(&(k.inv * y))).exp();
+                    m += k.normal * (phi * y.dot(&k.normal));
+                    den += phi;
+                    pdf += phi * k.density;
+                }
+                let s0 = *support.get_or_insert(pdf);
+                if den < 1e-300 {
+                    return (p, it, nearest, s0);
+                }
+                let step = m / den;
+                p -= step;
+                if step.norm() < 1e-4 * h {
+                    return (p, it + 1, nearest, s0);
+                }
+            }
+            (p, params.max_iterations, nearest, support.unwrap_or(0.0))
+        })
+        .collect();
+    report.mean_iterations = moved.iter().map(|m| m.1 as Real).sum::<Real>() / moved.len() as Real;
+    report.hit_iteration_limit = moved.iter().filter(|m| m.1 >= params.max_iterations).count();
+    report.seconds_shift = t.elapsed().as_secs_f64();
+
+    let t = std::time::Instant::now();
+    // Strays first: a sample where the kernel density at its start is low is an outlier whatever
+    // maximum it reaches — eq. 3.7's adaptive step can carry it onto the surface, where it would
+    // otherwise join (and bias) a surface cluster.
+    let median_support = {
+        let mut s: Vec<Real> = moved.iter().map(|m| m.3).collect();
+        s.sort_by(Real::total_cmp);
+        s[s.len() / 2]
+    };
+    let stray: Vec<bool> = moved.iter().map(|m| m.3 < params.min_support * median_support).collect();
+    report.strays = stray.iter().filter(|&&s| s).count();
+    let members: Vec<usize> = (0..moved.len()).filter(|&i| !stray[i]).collect();
+
+    // Clusters: samples that converged within `merge`·h of each other reached the same maximum
+    // (union–find over radius queries, so a cluster never splits at an arbitrary cell border).
+    let radius = params.merge * {
+        let mut hs: Vec<Real> = kernels.iter().map(|k| k.h).collect();
+        hs.sort_by(Real::total_cmp);
+        hs[hs.len() / 2]
+    };
+    let finals: Vec<Point3> = members.iter().map(|&i| moved[i].0).collect();
+    let final_tree = PointTree::new(&finals);
+    let pairs: Vec<Vec<usize>> = finals.par_iter().map(|p| final_tree.within(p, radius)).collect();
+    let mut sets = rig::union_find::UnionFind::new(finals.len());
+    for (i, near) in pairs.iter().enumerate() {
+        for &j in near {
+            sets.union(i, j);
+        }
+    }
+    let mut index: HashMap<usize, usize> = HashMap::new();
+    let mut sums: Vec<(Vector3, usize, usize)> = Vec::new();
+    // Per input sample, its cluster (None for strays).
+    let mut cluster_of = vec![None; moved.len()];
+    for (m, &i) in members.iter().enumerate() {
+        let (p, _, nearest, _) = moved[i];
+        let r = sets.find(m);
+        let c = *index.entry(r).or_insert_with(|| {
+            sums.push((Vector3::zeros(), 0, nearest));
+            sums.len() - 1
+        });
+        sums[c].0 += p.coords;
+        sums[c].1 += 1;
+        cluster_of[i] = Some(c);
+    }
+    let reps: Vec<(Point3, usize)> = sums.iter().map(|(s, n, near)| (Point3::from(s / *n as Real), *near)).collect();
+    report.clusters = reps.len();
+    // Section 3.3.1: groups of outliers converge to points sparsely spread around the surface, so a
+    // representative whose `density_k`-th neighbouring representative is far farther than typical goes.
+    let keep: Vec<bool> = if reps.len() > params.density_k {
+        let rep_points: Vec<Point3> = reps.iter().map(|r| r.0).collect();
+        let rep_tree = PointTree::new(&rep_points);
+        let kth: Vec<Real> = rep_points
+            .par_iter()
+            .map(|p| {
+                let nb = rep_tree.nearest_k(p, params.density_k + 1);
+                (rep_points[*nb.last().unwrap()] - p).norm()
+            })
+            .collect();
+        let median = {
+            let mut s = kth.clone();
+            s.sort_by(Real::total_cmp);
+            s[s.len() / 2]
+        };
+        kth.iter().map(|&d| d <= params.outlier_factor * median).collect()
+    } else {
+        vec![true; reps.len()]
+    };
+    let mut out = PointCloud { normals: Some(Vec::new()), ..Default::default() };
+    for (r, (p, near)) in reps.iter().enumerate() {
+        if !keep[r] {
+            report.outliers_removed += 1;
+            continue;
+        }
+        let mut n = kernels[*near].normal;
+        if let Some(input) = &cloud.normals
+            && n.dot(&input[*near]) < 0.0
+        {
+            n = -n;
+        }
+        out.positions.push(*p);
+        out.normals.as_mut().unwrap().push(n);
+    }
+    report.points_out = out.len();
+    report.seconds_cluster = t.elapsed().as_secs_f64();
+    let kept = cluster_of.iter().map(|c| c.is_some_and(|c| keep[c])).collect();
+    MeanShiftResult { cloud: out, kept, report }
+}

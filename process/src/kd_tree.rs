@@ -1,0 +1,40 @@
+//! The k-d tree every neighbourhood query goes through (ICP correspondences, PCA normals, mean-shift
+//! kernels, area weights, orientation graphs): kiddo's immutable tree over our points.
+
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use rig::math::Point3;
+use std::num::NonZero;
+
+/// A k-d tree over points, built once and queried many times.
+pub struct PointTree {
+    tree: ImmutableKdTree<f64, 3>,
+}
+
+impl PointTree {
+    /// Builds the tree.
+    pub fn new(points: &[Point3]) -> Self {
+        let coords: Vec<[f64; 3]> = points.iter().map(|p| [p.x, p.y, p.z]).collect();
+        PointTree { tree: ImmutableKdTree::new_from_slice(&coords) }
+    }
+
+    /// The nearest point's index and squared distance.
+    pub fn nearest(&self, p: &Point3) -> (usize, f64) {
+        let n = self.tree.nearest_one::<SquaredEuclidean>(&[p.x, p.y, p.z]);
+        (n.item as usize, n.distance)
+    }
+
+    /// Indices of the points within `radius` of `p`, in no order.
+    pub fn within(&self, p: &Point3, radius: f64) -> Vec<usize> {
+        self.tree
+            .within_unsorted::<SquaredEuclidean>(&[p.x, p.y, p.z], radius * radius)
+            .into_iter()
+            .map(|n| n.item as usize)
+            .collect()
+    }
+
+    /// The `k` nearest points' indices, nearest first.
+    pub fn nearest_k(&self, p: &Point3, k: usize) -> Vec<usize> {
+        let k = NonZero::new(k.max(1)).expect("k ≥ 1");
+        self.tree.nearest_n::<SquaredEuclidean>(&[p.x, p.y, p.z], k).into_iter().map(|n| n.item as usize).collect()
+    }
+}

@@ -1,0 +1,275 @@
+//! Deciding reuse: every output of `process` is recorded in `processed/stages.json` with the
+//! fingerprint of what made it — the scanrig version, the stage's parameters and the content hashes
+//! of its inputs — and the content hash of the file itself. A stage is reused only when both still
+//! match; otherwise it runs again and the reason is reported ("crop.radius_mm changed", "rig.toml's
+//! camera changed", "the file was changed since it was written").
+//!
+//! File times decide nothing: a rig edited and given an old time, or a parameter changed between
+//! runs, still reruns exactly the stages it affects.
+
+use serde::{Deserialize, Serialize};
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The records file inside the output folder.
+pub const RECORDS_NAME: &str = "stages.json";
+/// Its layout version.
+pub const RECORDS_FORMAT: u32 = 1;
+
+/// A 128-bit content hash (XXH3), as 32 hex digits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Hash(pub u128);
+
+impl Hash {
+    /// The hash of some bytes.
+    pub fn of(bytes: &[u8]) -> Hash {
+        Hash(xxhash_rust::xxh3::xxh3_128(bytes))
+    }
+
+    /// The hash of a file's content; `None` when it cannot be read.
+    pub fn of_file(path: &Path) -> Option<Hash> {
+        std::fs::read(path).ok().map(|b| Hash::of(&b))
+    }
+
+    fn hex(self) -> String {
+        format!("{:032x}", self.0)
+    }
+}
+
+impl Serialize for Hash {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&self.hex())
+    }
+}
+
+impl<'de> Deserialize<'de> for Hash {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        u128::from_str_radix(&s, 16).map(Hash).map_err(serde::de::Error::custom)
+    }
+}
+
+/// What made an output: the stage's parameters (any JSON) and its inputs by name and content hash.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Fingerprint {
+    /// The scanrig version that wrote the output.
+    pub version: String,
+    /// The stage's parameters, as they affect the output.
+    pub params: Value,
+    /// Inputs: a name (a frame, `rig.toml`, an upstream output) and the hash of its content.
+    pub inputs: BTreeMap<String, Hash>,
+}
+
+impl Fingerprint {
+    /// A fingerprint with the running version.
+    pub fn new(params: Value) -> Self {
+        Fingerprint { version: env!("CARGO_PKG_VERSION").to_string(), params, inputs: BTreeMap::new() }
+    }
+
+    /// Adds an input.
+    pub fn input(mut self, name: impl Into<String>, hash: Hash) -> Self {
+        self.inputs.insert(name.into(), hash);
+        self
+    }
+
+    /// Why `self` (now) differs from `old` (recorded), in words; `None` when they agree.
+    pub fn difference(&self, old: &Fingerprint) -> Option<String> {
+        if self.version != old.version {
+            return Some(format!("it was made by scanrig {}, this is {}", old.version, self.version));
+        }
+        let mut changed = Vec::new();
+        diff_values("", &self.params, &old.params, &mut changed);
+        if !changed.is_empty() {
+            return Some(format!("{} changed", list(&changed)));
+        }
+        let mut inputs: Vec<String> = Vec::new();
+        for (name, hash) in &self.inputs {
+            match old.inputs.get(name) {
+                Some(h) if h == hash => {}
+                Some(_) => inputs.push(name.clone()),
+                None => inputs.push(format!("{name} (new)")),
+            }
+        }
+        inputs.extend(old.inputs.keys().filter(|k| !self.inputs.contains_key(*k)).map(|k| format!("{k} (gone)")));
+        (!inputs.is_empty()).then(|| format!("input {} changed", list(&inputs)))
+    }
+}
+
+fn list(items: &[String]) -> String {
+    const MAX: usize = 4;
+    if items.len() <= MAX {
+        items.join(", ")
+    } else {
+        format!("{} and {} more", items[..MAX].join(", "), items.len() - MAX)
+    }
+}
+
+/// The dotted paths where two JSON values differ.
+fn diff_values(path: &str, new: &Value, old: &Value, out: &mut Vec<String>) {
+    match (new, old) {
+        (Value::Object(a), Value::Object(b)) => {
+            let keys: std::collections::BTreeSet<&String> = a.keys().chain(b.keys()).collect();
+            for k in keys {
+                let p = if path.is_empty() { k.clone() } else { format!("{path}.{k}") };
+                match (a.get(k), b.get(k)) {
+                    (Some(x), Some(y)) => diff_values(&p, x, y, out),
+                    _ => out.push(p),
+                }
+            }
+        }
+        _ if new != old => out.push(if path.is_empty() { "the parameters".into() } else { path.to_string() }),
+        _ => {}
+    }
+}
+
+/// One recorded output.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct Record {
+    /// What made it.
+    pub fingerprint: Fingerprint,
+    /// The hash of the file as written.
+    pub hash: Hash,
+    /// The stage's report when it made the file (reported again when the file is reused).
+    #[serde(default)]
+    pub report: Value,
+}
+
+#[derive(Debug, Default, Serialize, Deserialize)]
+struct RecordsFile {
+    format: u32,
+    outputs: BTreeMap<String, Record>,
+}
+
+/// The outcome of asking whether an output can be reused.
+#[derive(Debug, Clone)]
+pub enum Decision {
+    /// The file is current: its record (the hash of its content, its report).
+    Reuse(Record),
+    /// It must be made again, for this reason.
+    Run(String),
+}
+
+impl Decision {
+    /// True for [`Decision::Reuse`].
+    pub fn reused(&self) -> bool {
+        matches!(self, Decision::Reuse(_))
+    }
+
+    /// The reason to run, if it must run.
+    pub fn reason(&self) -> Option<&str> {
+        match self {
+            Decision::Run(r) => Some(r),
+            Decision::Reuse(_) => None,
+        }
+    }
+}
+
+/// The records of one output folder.
+#[derive(Debug)]
+pub struct Records {
+    path: PathBuf,
+    out: PathBuf,
+    file: RecordsFile,
+    force: bool,
+}
+
+impl Records {
+    /// Reads the records of the output folder `out` (none yet, or unreadable, is an empty set: every
+    /// stage then runs). `force` makes every decision [`Decision::Run`].
+    pub fn open(out: &Path, force: bool) -> Records {
+        let path = out.join(RECORDS_NAME);
+        let file = std::fs::read(&path)
+            .ok()
+            .and_then(|b| serde_json::from_slice::<RecordsFile>(&b).ok())
+            .filter(|f| f.format == RECORDS_FORMAT)
+            .unwrap_or(RecordsFile { format: RECORDS_FORMAT, outputs: BTreeMap::new() });
+        Records { path, out: out.to_path_buf(), file, force }
+    }
+
+    /// Whether `name` (relative to the output folder) can be reused for `now`.
+    pub fn decide(&self, name: &str, now: &Fingerprint) -> Decision {
+        if self.force {
+            return Decision::Run("--force".into());
+        }
+        let Some(record) = self.file.outputs.get(name) else {
+            return Decision::Run(if self.out.join(name).exists() {
+                "no record of how the file was made".into()
+            } else {
+                "not made yet".into()
+            });
+        };
+        if let Some(why) = now.difference(&record.fingerprint) {
+            return Decision::Run(why);
+        }
+        match Hash::of_file(&self.out.join(name)) {
+            None => Decision::Run("the file is missing".into()),
+            Some(h) if h != record.hash => Decision::Run("the file was changed since it was written".into()),
+            Some(_) => Decision::Reuse(record.clone()),
+        }
+    }
+
+    /// The record of `name`, if any.
+    pub fn get(&self, name: &str) -> Option<&Record> {
+        self.file.outputs.get(name)
+    }
+
+    /// Notes that `name` was written with content hash `hash`, by `fingerprint`, reporting `report`.
+    pub fn insert(&mut self, name: &str, fingerprint: Fingerprint, hash: Hash, report: Value) {
+        self.file.outputs.insert(name.to_string(), Record { fingerprint, hash, report });
+    }
+
+    /// Forgets `name` (an output that is about to be rewritten, or no longer made).
+    pub fn remove(&mut self, name: &str) {
+        self.file.outputs.remove(name);
+    }
+
+    /// Writes the records atomically.
+    pub fn save(&self) -> Result<(), rig::Error> {
+        let json = serde_json::to_vec_pretty(&self.file).expect("records serialise");
+        rig::write_atomic(&self.path, &json)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn differences_name_the_parameter_or_the_input() {
+        let a = Fingerprint::new(json!({"crop": {"radius_mm": 20.0, "min_height_mm": 1.0}, "k": 64}))
+            .input("rig.toml camera", Hash(1));
+        let mut b = a.clone();
+        assert_eq!(a.difference(&b), None);
+        b.params = json!({"crop": {"radius_mm": null, "min_height_mm": 1.0}, "k": 64});
+        assert_eq!(a.difference(&b).as_deref(), Some("crop.radius_mm changed"));
+        let c = a.clone().input("rig.toml camera", Hash(2));
+        assert_eq!(c.difference(&a).as_deref(), Some("input rig.toml camera changed"));
+        let mut d = a.clone();
+        d.version = "0.0.1".into();
+        assert!(a.difference(&d).unwrap().contains("made by scanrig 0.0.1"));
+    }
+
+    #[test]
+    fn a_file_is_reused_only_while_its_fingerprint_and_content_hold() {
+        let tmp = tempfile::tempdir().unwrap();
+        let dir = tmp.path();
+        let fp = Fingerprint::new(json!({"depth": 8}));
+        let mut r = Records::open(dir, false);
+        assert_eq!(r.decide("mesh.ply", &fp).reason(), Some("not made yet"));
+        std::fs::write(dir.join("mesh.ply"), b"mesh").unwrap();
+        assert_eq!(r.decide("mesh.ply", &fp).reason(), Some("no record of how the file was made"));
+        r.insert("mesh.ply", fp.clone(), Hash::of(b"mesh"), json!({"triangles": 4}));
+        r.save().unwrap();
+        let r = Records::open(dir, false);
+        match r.decide("mesh.ply", &fp) {
+            Decision::Reuse(rec) => assert_eq!(rec.report["triangles"], 4),
+            Decision::Run(why) => panic!("{why}"),
+        }
+        assert_eq!(r.decide("mesh.ply", &Fingerprint::new(json!({"depth": 9}))).reason(), Some("depth changed"));
+        assert_eq!(Records::open(dir, true).decide("mesh.ply", &fp).reason(), Some("--force"));
+        std::fs::write(dir.join("mesh.ply"), b"edited").unwrap();
+        assert_eq!(r.decide("mesh.ply", &fp).reason(), Some("the file was changed since it was written"));
+    }
+}

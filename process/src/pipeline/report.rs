@@ -1,0 +1,143 @@
+//! `report.json`: what every stage of a `process` run did, field by field on the types below. Each
+//! stage's section says whether its output was reused (and if not, why it ran) and carries that
+//! stage's own report; a reused output reports what the run that made it reported.
+
+use super::stages::{FuseReport, MergeReport, ReconstructReport, RegisterReport};
+use crate::denoise::DenoiseReport;
+use crate::laser_line::LineReport;
+use crate::remesh::RemeshReport;
+use crate::structured_light::DecodeReport;
+use rig::Method;
+use rig::math::Real;
+use serde::{Deserialize, Serialize};
+
+/// The layout version of `report.json` and of every `--json` output.
+pub const REPORT_SCHEMA_VERSION: u32 = 2;
+
+/// One stage's part of the report.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct Section<T> {
+    /// True when the output was current and kept.
+    pub reused: bool,
+    /// Why the stage ran (absent when reused).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+    /// Seconds this run spent on the stage (reading a reused output included).
+    pub seconds: Real,
+    /// The stage's own report (from the run that made the output, when reused).
+    pub report: T,
+}
+
+/// What triangulation left in a view's grid.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
+pub struct GridReport {
+    /// Valid cells.
+    pub points: usize,
+    /// Cells with a grid normal.
+    pub normals: usize,
+}
+
+/// One laser's line in one view.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
+pub struct LaserViewReport {
+    /// The laser, 0-based.
+    pub laser: usize,
+    /// What line extraction found.
+    pub line: LineReport,
+    /// Points triangulated.
+    pub points: usize,
+}
+
+/// One view's part of the report.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct ViewReport {
+    /// View index.
+    pub view: usize,
+    /// Turntable angle (degrees).
+    pub angle_deg: Real,
+    /// Structured light: decoding.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub decode: Option<Section<DecodeReport>>,
+    /// Structured light: triangulation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub triangulate: Option<Section<GridReport>>,
+    /// Laser: each laser's line.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lasers: Vec<Section<LaserViewReport>>,
+    /// Denoising, where it ran.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub denoise: Option<Section<DenoiseReport>>,
+    /// Valid points the view hands on (after denoising where it ran).
+    pub points: usize,
+    /// True when every output of the view was reused.
+    pub reused: bool,
+    /// Seconds spent on the view.
+    pub seconds: Real,
+}
+
+/// What `process_scan` did: the JSON `report.json` holds.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct ProcessReport {
+    /// [`REPORT_SCHEMA_VERSION`].
+    pub schema_version: u32,
+    /// The scanrig version that wrote the report.
+    pub scanrig_version: String,
+    /// The scan folder.
+    pub scan: String,
+    /// The capture method, spelled as in `scan.json`.
+    pub method: Option<Method>,
+    /// Complete views processed.
+    pub views: Vec<ViewReport>,
+    /// Incomplete views left out (a scan still running, or interrupted).
+    pub incomplete_views: Vec<usize>,
+    /// Merging (absent where it never ran).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub merge: Option<Section<MergeReport>>,
+    /// Registration.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub register: Option<Section<RegisterReport>>,
+    /// Fusion.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fuse: Option<Section<FuseReport>>,
+    /// Reconstruction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reconstruct: Option<Section<ReconstructReport>>,
+    /// Remeshing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub remesh: Option<Section<RemeshReport>>,
+    /// Things the user should know that did not stop the run.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+    /// Stages that were asked for but could not run here, with the reason.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub skipped: Vec<String>,
+    /// Files written or reused, relative to the output folder.
+    pub outputs: Vec<String>,
+    /// Seconds in all.
+    pub total_seconds: Real,
+}
+
+impl ProcessReport {
+    /// Points in the merged cloud (0 before merging).
+    pub fn merged_points(&self) -> usize {
+        self.merge.as_ref().map_or(0, |m| m.report.points)
+    }
+
+    /// Keeps the sections of stages this run did not reach from `old` (an earlier run's report of the
+    /// same folder), so a resumed or shorter run never drops them.
+    pub fn keep_sections_of(&mut self, old: ProcessReport) {
+        if self.views.is_empty() {
+            self.views = old.views;
+        }
+        self.merge = self.merge.take().or(old.merge);
+        self.register = self.register.take().or(old.register);
+        self.fuse = self.fuse.take().or(old.fuse);
+        self.reconstruct = self.reconstruct.take().or(old.reconstruct);
+        self.remesh = self.remesh.take().or(old.remesh);
+        for o in old.outputs {
+            if !self.outputs.contains(&o) {
+                self.outputs.push(o);
+            }
+        }
+    }
+}

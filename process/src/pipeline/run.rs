@@ -1,0 +1,580 @@
+//! The run: each view's stages, then the scan's, each output reused or made again as its record says.
+
+use super::layout::{self, Layout};
+use super::lock::Lock;
+use super::records::{Decision, Fingerprint, Hash, Records};
+use super::report::{GridReport, LaserViewReport, ProcessReport, REPORT_SCHEMA_VERSION, Section, ViewReport};
+use super::stages::{self, ViewGrid};
+use super::{ProcessParams, Progress, Stage};
+use crate::Error;
+use crate::laser_line::{detect_line, triangulate_line};
+use crate::placement::CropParams;
+use crate::projector_map::ProjectorMap;
+use crate::register_scan::ViewPose;
+use crate::triangulate::Triangulator;
+use rayon::prelude::*;
+use rig::image::Image8;
+use rig::math::Real;
+use rig::ply::WriteOptions;
+use rig::scan_folder::{Manifest, Method};
+use rig::{Pattern, PointCloud, RangeGrid, Rig};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use serde_json::{Value, json};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The open output folder: where files go, what is recorded of them, how they are written.
+struct Out {
+    layout: Layout,
+    records: Records,
+    opts: WriteOptions,
+}
+
+impl Out {
+    fn path(&self, name: &str) -> PathBuf {
+        self.layout.path(name)
+    }
+
+    /// Writes `bytes` as `name` atomically and records how it was made; returns the content hash.
+    fn put(&mut self, name: &str, bytes: &[u8], fp: Fingerprint, report: &impl Serialize) -> Result<Hash, Error> {
+        // Forget the old record first: a crash between the write and the save then leaves no record
+        // claiming the new file is the old one.
+        self.records.remove(name);
+        rig::write_atomic(&self.path(name), bytes)?;
+        let hash = Hash::of(bytes);
+        self.records.insert(name, fp, hash, serde_json::to_value(report).expect("reports serialise"));
+        Ok(hash)
+    }
+
+    fn put_grid(
+        &mut self,
+        name: &str,
+        grid: &RangeGrid,
+        fp: Fingerprint,
+        r: &impl Serialize,
+    ) -> Result<(RangeGrid, Hash), Error> {
+        let bytes = rig::ply::range_grid_to_bytes(grid, &self.opts);
+        let hash = self.put(name, &bytes, fp, r)?;
+        Ok((parse_grid(&bytes, &self.path(name))?, hash))
+    }
+
+    fn put_cloud(
+        &mut self,
+        name: &str,
+        cloud: &PointCloud,
+        fp: Fingerprint,
+        r: &impl Serialize,
+    ) -> Result<(PointCloud, Hash), Error> {
+        let bytes = rig::ply::cloud_to_bytes(cloud, &self.opts);
+        let hash = self.put(name, &bytes, fp, r)?;
+        let ply = rig::ply::parse(&bytes).map_err(|e| e.with_path(&self.path(name)))?;
+        Ok((rig::ply::cloud_from_ply(&ply).map_err(|e| e.with_path(&self.path(name)))?, hash))
+    }
+
+    fn read_grid(&self, name: &str) -> Result<RangeGrid, Error> {
+        Ok(rig::ply::read_range_grid(&self.path(name))?)
+    }
+}
+
+fn parse_grid(bytes: &[u8], path: &Path) -> Result<RangeGrid, Error> {
+    let ply = rig::ply::parse(bytes).map_err(|e| e.with_path(path))?;
+    Ok(rig::ply::range_grid_from_ply(&ply).map_err(|e| e.with_path(path))?)
+}
+
+/// A recorded report, typed (the default where an old record lacks it).
+fn recorded<T: DeserializeOwned + Default>(v: &Value) -> T {
+    serde_json::from_value(v.clone()).unwrap_or_default()
+}
+
+fn section<T>(decision: &Decision, seconds: Real, report: T) -> Section<T> {
+    Section { reused: decision.reused(), reason: decision.reason().map(str::to_string), seconds, report }
+}
+
+/// Parameters and rig parts as fingerprint values: the rig's parts by their exact debug text (every
+/// f64 printed so it reads back the same), so any edit of the part a stage uses reruns the stage.
+fn rig_part(part: &impl std::fmt::Debug) -> Value {
+    Value::String(format!("{part:?}"))
+}
+
+fn load_frames(frames: &[(Pattern, PathBuf)]) -> Result<Vec<(Pattern, Image8)>, Error> {
+    let loaded = frames.par_iter().map(|(p, path)| Ok((*p, rig::image::read_png(path)?.to_gray())));
+    loaded.collect::<Result<Vec<_>, rig::Error>>().map_err(Error::File)
+}
+
+/// The content hash of every frame, by file name.
+fn frame_hashes(frames: &[(Pattern, PathBuf)], scan: &Path) -> Result<BTreeMap<String, Hash>, Error> {
+    frames
+        .par_iter()
+        .map(|(_, path)| {
+            let bytes = std::fs::read(path).map_err(|e| Error::File(rig::Error::io(path, e)))?;
+            let name = path.strip_prefix(scan).unwrap_or(path).display().to_string();
+            Ok((name, Hash::of(&bytes)))
+        })
+        .collect()
+}
+
+fn with_inputs(mut fp: Fingerprint, inputs: &BTreeMap<String, Hash>) -> Fingerprint {
+    fp.inputs.extend(inputs.iter().map(|(k, v)| (k.clone(), *v)));
+    fp
+}
+
+/// A view's grid as handed to the scan's stages: its name, content hash and, where it was made in
+/// this run, the grid itself (else read when a later stage needs it).
+struct ViewOutput {
+    view: usize,
+    angle_deg: Real,
+    name: String,
+    hash: Hash,
+    grid: Option<RangeGrid>,
+}
+
+/// Runs the stages on the scan folder `scan`, writing into `out`; `progress(stage, done, total)`.
+pub fn process_scan(
+    scan: &Path,
+    out: &Path,
+    params: &ProcessParams,
+    mut progress: impl Progress,
+) -> Result<ProcessReport, Error> {
+    let start = Instant::now();
+    let manifest = Manifest::read(scan)?;
+    let rig_path = scan.join(&manifest.rig);
+    let rig = Rig::read(&rig_path)?;
+    if manifest.method == Method::Board {
+        return Err(Error::BoardCapture { scan: scan.to_path_buf() });
+    }
+    let layout = Layout::new(out);
+    layout.create()?;
+    let lock = Lock::acquire(out)?;
+    let mut o =
+        Out { layout, records: Records::open(out, params.force), opts: WriteOptions::default().with_units("mm") };
+    let old_report: Option<ProcessReport> = std::fs::read(o.path(layout::REPORT))
+        .ok()
+        .and_then(|b| serde_json::from_slice::<ProcessReport>(&b).ok())
+        .filter(|r| r.schema_version == REPORT_SCHEMA_VERSION);
+    let mut report = ProcessReport {
+        schema_version: REPORT_SCHEMA_VERSION,
+        scanrig_version: env!("CARGO_PKG_VERSION").into(),
+        scan: scan.display().to_string(),
+        method: Some(manifest.method),
+        ..Default::default()
+    };
+    if let Some(pid) = lock.replaced_stale {
+        report.warnings.push(format!(
+            "{}: replaced a stale lock left by process {pid}, which is no longer running (a killed run?)",
+            out.join(super::lock::LOCK_NAME).display()
+        ));
+    }
+    let complete: Vec<usize> = (0..manifest.views.len()).filter(|&v| manifest.views[v].complete).collect();
+    report.incomplete_views = (0..manifest.views.len()).filter(|v| !complete.contains(v)).collect();
+
+    let mut outputs: Vec<ViewOutput> = Vec::new();
+    let mut triangulator: Option<Triangulator> = None;
+    for (done, &v) in complete.iter().enumerate() {
+        let t0 = Instant::now();
+        let view = &manifest.views[v];
+        let frames: Vec<(Pattern, PathBuf)> =
+            view.frames.iter().map(|f| (f.pattern, Manifest::frame_path(scan, f))).collect();
+        let mut vr = ViewReport { view: v, angle_deg: view.angle_deg, reused: true, ..Default::default() };
+        match manifest.method {
+            Method::StructuredLight => {
+                let projector = rig.projector.as_ref().ok_or_else(|| Error::NoProjector { rig: rig_path.clone() })?;
+                let (pw, ph) = (projector.lens.width, projector.lens.height);
+                // Decode.
+                let t = Instant::now();
+                let fp = with_inputs(
+                    Fingerprint::new(json!({"decode": params.decode, "projector_px": [pw, ph]})),
+                    &frame_hashes(&frames, scan)?,
+                );
+                let name = Layout::decode(v);
+                let decision = o.records.decide(&name, &fp);
+                let (map_hash, mut map) = match &decision {
+                    Decision::Reuse(rec) => {
+                        vr.decode = Some(section(&decision, 0.0, recorded(&rec.report)));
+                        (rec.hash, None)
+                    }
+                    Decision::Run(_) => {
+                        let imgs = load_frames(&frames)?;
+                        let refs: Vec<(Pattern, &Image8)> = imgs.iter().map(|(p, i)| (*p, i)).collect();
+                        let (map, dr) = stages::decode(&refs, (pw, ph), &params.decode)
+                            .map_err(|source| Error::View { view: v, stage: Stage::Decode, source })?;
+                        let hash = o.put(&name, &rig::npy::to_bytes(&map.to_npy()), fp, &dr)?;
+                        rig::image::write_png(&o.path(&Layout::projector_preview(v)), &map.preview(pw, ph), false)?;
+                        vr.decode = Some(section(&decision, t.elapsed().as_secs_f64(), dr));
+                        (hash, Some(map))
+                    }
+                };
+                vr.reused &= decision.reused();
+                report.outputs.push(name.clone());
+                if params.until < Stage::Triangulate {
+                    progress(Stage::Decode, done + 1, complete.len());
+                    continue;
+                }
+                // Triangulate.
+                let t = Instant::now();
+                let fp = Fingerprint::new(json!({
+                    "triangulate": params.triangulate,
+                    "normal_max_jump_mm": params.normal_max_jump_mm,
+                    "rig.camera": rig_part(&rig.camera),
+                    "rig.projector": rig_part(projector),
+                }))
+                .input(&name, map_hash);
+                let grid_name = Layout::grid(v);
+                let decision = o.records.decide(&grid_name, &fp);
+                let (mut hash, mut grid) = match &decision {
+                    Decision::Reuse(rec) => {
+                        vr.triangulate = Some(section(&decision, 0.0, recorded::<GridReport>(&rec.report)));
+                        (rec.hash, None)
+                    }
+                    Decision::Run(_) => {
+                        let map = match map.take() {
+                            Some(m) => m,
+                            None => read_map(&o.path(&name))?,
+                        };
+                        // Checked before the rig's ray tables are built: a rig of the wrong camera
+                        // (or an absurd size) must fail here, not allocate.
+                        let camera = (rig.camera.width, rig.camera.height);
+                        if (map.width, map.height) != (camera.0 as usize, camera.1 as usize) {
+                            let source = stages::StageError::MapSize { map: (map.width, map.height), camera };
+                            return Err(Error::View { view: v, stage: Stage::Triangulate, source });
+                        }
+                        let tri = triangulator.get_or_insert_with(|| Triangulator::new(&rig.camera, projector));
+                        let (grid, gr) = stages::triangulate(&map, tri, &params.triangulate, params.normal_max_jump_mm)
+                            .map_err(|source| Error::View { view: v, stage: Stage::Triangulate, source })?;
+                        let (grid, hash) = o.put_grid(&grid_name, &grid, fp, &gr)?;
+                        let depth = crate::preview::depth_image(&grid);
+                        rig::image::write_png(&o.path(&Layout::depth_preview(v)), &depth, false)?;
+                        vr.triangulate = Some(section(&decision, t.elapsed().as_secs_f64(), gr));
+                        (hash, Some(grid))
+                    }
+                };
+                vr.reused &= decision.reused();
+                vr.points = vr.triangulate.as_ref().map_or(0, |s| s.report.points);
+                report.outputs.push(grid_name.clone());
+                let mut handed = grid_name;
+                // Denoise.
+                if let (Some(dp), true) = (&params.denoise, params.until >= Stage::Denoise) {
+                    let t = Instant::now();
+                    let fp = Fingerprint::new(json!({ "denoise": dp })).input(&handed, hash);
+                    let name = Layout::denoised(v);
+                    let decision = o.records.decide(&name, &fp);
+                    match &decision {
+                        Decision::Reuse(rec) => {
+                            let dr: crate::denoise::DenoiseReport = recorded(&rec.report);
+                            vr.points = dr.points;
+                            vr.denoise = Some(section(&decision, 0.0, dr));
+                            (hash, grid) = (rec.hash, None);
+                        }
+                        Decision::Run(_) => {
+                            let input = match grid.take() {
+                                Some(g) => g,
+                                None => o.read_grid(&handed)?,
+                            };
+                            let (clean, dr) = stages::denoise(std::slice::from_ref(&input), 0, 0, dp)
+                                .map_err(|source| Error::View { view: v, stage: Stage::Denoise, source })?;
+                            let (clean, h) = o.put_grid(&name, &clean, fp, &dr)?;
+                            vr.points = clean.valid_count();
+                            vr.denoise = Some(section(&decision, t.elapsed().as_secs_f64(), dr));
+                            (hash, grid) = (h, Some(clean));
+                        }
+                    }
+                    vr.reused &= decision.reused();
+                    report.outputs.push(name.clone());
+                    handed = name;
+                }
+                outputs.push(ViewOutput { view: v, angle_deg: view.angle_deg, name: handed, hash, grid });
+            }
+            Method::Laser => {
+                let off = frames
+                    .iter()
+                    .find(|f| f.0 == Pattern::LaserOff)
+                    .ok_or(Error::MissingFrame { view: v, frame: "laser_off" })?;
+                for (k, laser) in rig.lasers.iter().enumerate() {
+                    let Some(on) = frames.iter().find(|f| f.0 == Pattern::Laser { index: k }) else { continue };
+                    let t = Instant::now();
+                    let pair = [off.clone(), on.clone()];
+                    let fp = with_inputs(
+                        Fingerprint::new(json!({
+                            "laser": params.laser,
+                            "rig.camera": rig_part(&rig.camera),
+                            "rig.laser": rig_part(&laser.plane),
+                        })),
+                        &frame_hashes(&pair, scan)?,
+                    );
+                    let name = Layout::laser_grid(v, k);
+                    let decision = o.records.decide(&name, &fp);
+                    let (hash, grid, lr) = match &decision {
+                        Decision::Reuse(rec) => (rec.hash, None, recorded::<LaserViewReport>(&rec.report)),
+                        Decision::Run(_) => {
+                            let imgs = load_frames(&pair)?;
+                            let (peaks, line) = detect_line(&imgs[1].1, &imgs[0].1, &params.laser);
+                            let grid = triangulate_line(&peaks, &rig.camera, &laser.plane);
+                            let lr = LaserViewReport { laser: k, line, points: grid.valid_count() };
+                            let (grid, hash) = o.put_grid(&name, &grid, fp, &lr)?;
+                            (hash, Some(grid), lr)
+                        }
+                    };
+                    vr.reused &= decision.reused();
+                    vr.points += lr.points;
+                    vr.lasers.push(section(&decision, t.elapsed().as_secs_f64(), lr));
+                    report.outputs.push(name.clone());
+                    outputs.push(ViewOutput { view: v, angle_deg: view.angle_deg, name, hash, grid });
+                }
+            }
+            Method::Board => unreachable!("refused above"),
+        }
+        vr.seconds = t0.elapsed().as_secs_f64();
+        report.views.push(vr);
+        o.records.save()?;
+        progress(Stage::Triangulate.min(params.until), done + 1, complete.len());
+    }
+
+    let crop = CropParams { radius_mm: params.crop.radius_mm.or(rig.platter_radius_mm), ..params.crop };
+    let result = scan_stages(&mut o, &mut report, &rig, manifest.method, outputs, &crop, params, &mut progress);
+    // The report is written whatever happened, so what did finish is described.
+    o.records.save()?;
+    report.total_seconds = start.elapsed().as_secs_f64();
+    report.outputs.push(layout::REPORT.into());
+    if let Some(old) = old_report {
+        report.keep_sections_of(old);
+    }
+    let json = serde_json::to_vec_pretty(&report).expect("reports serialise");
+    rig::write_atomic(&o.path(layout::REPORT), &json)?;
+    drop(lock);
+    result.map(|()| report)
+}
+
+fn read_map(path: &Path) -> Result<ProjectorMap, Error> {
+    ProjectorMap::from_npy(&rig::npy::read(path)?).ok_or_else(|| Error::NotAProjectorMap { path: path.to_path_buf() })
+}
+
+/// Loads the grids a scan stage needs that are not in memory.
+fn load_grids(o: &Out, outputs: &mut [ViewOutput]) -> Result<(), Error> {
+    let loaded: Vec<Option<RangeGrid>> = outputs
+        .par_iter()
+        .map(|vo| match vo.grid {
+            Some(_) => Ok(None),
+            None => o.read_grid(&vo.name).map(Some),
+        })
+        .collect::<Result<_, Error>>()?;
+    for (vo, g) in outputs.iter_mut().zip(loaded) {
+        if g.is_some() {
+            vo.grid = g;
+        }
+    }
+    Ok(())
+}
+
+fn view_grids(outputs: &[ViewOutput]) -> Vec<ViewGrid<'_>> {
+    outputs
+        .iter()
+        .map(|vo| ViewGrid { view: vo.view, angle_deg: vo.angle_deg, grid: vo.grid.as_ref().expect("loaded") })
+        .collect()
+}
+
+fn grid_inputs(fp: Fingerprint, outputs: &[ViewOutput]) -> Fingerprint {
+    outputs.iter().fold(fp, |fp, vo| fp.input(&vo.name, vo.hash))
+}
+
+/// Merge, register, fuse, reconstruct, remesh.
+#[allow(clippy::too_many_arguments)]
+fn scan_stages(
+    o: &mut Out,
+    report: &mut ProcessReport,
+    rig: &Rig,
+    method: Method,
+    mut outputs: Vec<ViewOutput>,
+    crop: &CropParams,
+    params: &ProcessParams,
+    progress: &mut impl Progress,
+) -> Result<(), Error> {
+    if params.until < Stage::Merge || outputs.is_empty() {
+        return Ok(());
+    }
+    // Merge.
+    let t = Instant::now();
+    let fp = grid_inputs(Fingerprint::new(json!({"crop": crop, "rig.turntable": rig_part(&rig.turntable)})), &outputs);
+    let decision = o.records.decide(layout::MERGED, &fp);
+    let (mut cloud_name, mut cloud_hash, mut cloud) = match &decision {
+        Decision::Reuse(rec) => {
+            report.merge = Some(section(&decision, 0.0, recorded(&rec.report)));
+            (layout::MERGED, rec.hash, None)
+        }
+        Decision::Run(_) => {
+            load_grids(o, &mut outputs)?;
+            let (merged, mr) = stages::merge(&view_grids(&outputs), rig.turntable.as_ref(), crop);
+            let (merged, hash) = o.put_cloud(layout::MERGED, &merged, fp, &mr)?;
+            report.merge = Some(section(&decision, t.elapsed().as_secs_f64(), mr));
+            (layout::MERGED, hash, Some(merged))
+        }
+    };
+    report.outputs.push(layout::MERGED.into());
+    o.records.save()?;
+    progress(Stage::Merge, 1, 1);
+
+    // Register.
+    if params.until >= Stage::Register {
+        match (method, rig.turntable.as_ref()) {
+            (Method::StructuredLight, Some(axis)) if outputs.len() >= 2 => {
+                let t = Instant::now();
+                let fp = grid_inputs(
+                    Fingerprint::new(json!({
+                        "crop": crop,
+                        "register": params.register,
+                        "rig.turntable": rig_part(&rig.turntable),
+                    })),
+                    &outputs,
+                );
+                let decision = match o.records.decide(layout::REGISTERED, &fp) {
+                    Decision::Reuse(rec) => match o.records.decide(layout::POSES, &fp) {
+                        Decision::Reuse(_) => Decision::Reuse(rec),
+                        run => run,
+                    },
+                    run => run,
+                };
+                match &decision {
+                    Decision::Reuse(rec) => {
+                        report.register = Some(section(&decision, 0.0, recorded(&rec.report)));
+                        (cloud_hash, cloud) = (rec.hash, None);
+                    }
+                    Decision::Run(_) => {
+                        load_grids(o, &mut outputs)?;
+                        let (registered, poses, rr) =
+                            stages::register(&view_grids(&outputs), axis, crop, &params.register)
+                                .map_err(|source| Error::Stage { stage: Stage::Register, source })?;
+                        let (registered, hash) = o.put_cloud(layout::REGISTERED, &registered, fp.clone(), &rr)?;
+                        o.put(layout::POSES, &stages::poses_json(&poses), fp, &rr)?;
+                        report.register = Some(section(&decision, t.elapsed().as_secs_f64(), rr));
+                        (cloud_hash, cloud) = (hash, Some(registered));
+                    }
+                }
+                cloud_name = layout::REGISTERED;
+                report.outputs.push(layout::REGISTERED.into());
+                report.outputs.push(layout::POSES.into());
+                o.records.save()?;
+                progress(Stage::Register, 1, 1);
+            }
+            (Method::StructuredLight, Some(_)) => report.skipped.push("register: needs at least two views".into()),
+            (Method::StructuredLight, None) => {
+                report.skipped.push("register: the rig has no [turntable] to start from".into())
+            }
+            _ => report
+                .skipped
+                .push("register: laser views are single lines per laser, without the surface normals ICP needs".into()),
+        }
+    }
+    drop(outputs);
+    if params.until < Stage::Fuse {
+        return Ok(());
+    }
+
+    // Fuse.
+    let t = Instant::now();
+    let fp = Fingerprint::new(json!({ "fuse": params.fuse })).input(cloud_name, cloud_hash);
+    let decision = o.records.decide(layout::FUSED, &fp);
+    let (fused_hash, mut fused) = match &decision {
+        Decision::Reuse(rec) => {
+            report.fuse = Some(section(&decision, 0.0, recorded(&rec.report)));
+            (rec.hash, None)
+        }
+        Decision::Run(_) => {
+            let input = match cloud.take() {
+                Some(c) => c,
+                None => rig::read_cloud(&o.path(cloud_name))?,
+            };
+            let (result, fr) =
+                stages::fuse(&input, &params.fuse).map_err(|source| Error::Stage { stage: Stage::Fuse, source })?;
+            let (fused, hash) = o.put_cloud(layout::FUSED, &result.cloud, fp, &fr)?;
+            report.fuse = Some(section(&decision, t.elapsed().as_secs_f64(), fr));
+            (hash, Some(fused))
+        }
+    };
+    report.outputs.push(layout::FUSED.into());
+    o.records.save()?;
+    progress(Stage::Fuse, 1, 1);
+    if params.until < Stage::Reconstruct {
+        return Ok(());
+    }
+
+    // Reconstruct.
+    let t = Instant::now();
+    let fp = Fingerprint::new(json!({ "reconstruct": params.reconstruct })).input(layout::FUSED, fused_hash);
+    let decision = o.records.decide(layout::MESH, &fp);
+    let (mesh_hash, mut mesh) = match &decision {
+        Decision::Reuse(rec) => {
+            let r: Option<stages::ReconstructReport> = serde_json::from_value(rec.report.clone()).ok();
+            report.reconstruct = r.map(|r| section(&decision, 0.0, r));
+            (rec.hash, None)
+        }
+        Decision::Run(_) => {
+            let input = match fused.take() {
+                Some(c) => c,
+                None => rig::read_cloud(&o.path(layout::FUSED))?,
+            };
+            let (mesh, rr) = stages::reconstruct(&input, &params.reconstruct)
+                .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
+            let bytes = rig::ply::mesh_to_bytes(&mesh.to_poly(), &o.opts);
+            let hash = o.put(layout::MESH, &bytes, fp, &rr)?;
+            let back = rig::ply::parse(&bytes).and_then(|p| rig::ply::mesh_from_ply(&p));
+            let back = back.map_err(|e| e.with_path(&o.path(layout::MESH)))?.triangulate();
+            report.reconstruct = Some(section(&decision, t.elapsed().as_secs_f64(), rr));
+            (hash, Some(back))
+        }
+    };
+    report.outputs.push(layout::MESH.into());
+    o.records.save()?;
+    progress(Stage::Reconstruct, 1, 1);
+    if params.until < Stage::Remesh {
+        return Ok(());
+    }
+
+    // Remesh.
+    let t = Instant::now();
+    let fp = Fingerprint::new(json!({ "remesh": params.remesh })).input(layout::MESH, mesh_hash);
+    let decision = o.records.decide(layout::QUADS, &fp);
+    match &decision {
+        Decision::Reuse(rec) => report.remesh = Some(section(&decision, 0.0, recorded(&rec.report))),
+        Decision::Run(_) => {
+            let input = match mesh.take() {
+                Some(m) => m,
+                None => rig::read_mesh(&o.path(layout::MESH))?.triangulate(),
+            };
+            let (quads, rr) = stages::remesh(&input, &params.remesh)
+                .map_err(|source| Error::Stage { stage: Stage::Remesh, source })?;
+            o.put(layout::QUADS, &rig::obj::mesh_to_bytes(&quads), fp, &rr)?;
+            report.remesh = Some(section(&decision, t.elapsed().as_secs_f64(), rr));
+        }
+    }
+    report.outputs.push(layout::QUADS.into());
+    progress(Stage::Remesh, 1, 1);
+    Ok(())
+}
+
+/// `scanrig register`: the views of a processed scan (their denoised grids where the folder has them)
+/// registered from their turntable poses exactly as `process` registers them. Returns the cloud,
+/// the poses and the report.
+pub fn register_processed(
+    scan: &Path,
+    processed: &Path,
+    crop: &CropParams,
+    params: &crate::multiview::MultiViewParams,
+) -> Result<(PointCloud, Vec<ViewPose>, stages::RegisterReport), Error> {
+    let manifest = Manifest::read(scan)?;
+    let rig_path = scan.join(&manifest.rig);
+    let rig = Rig::read(&rig_path)?;
+    let axis = rig.turntable.ok_or_else(|| Error::NoTurntable { rig: rig_path.clone() })?;
+    let mut grids = Vec::new();
+    for (v, view) in manifest.views.iter().enumerate().filter(|(_, view)| view.complete) {
+        for name in [Layout::denoised(v), Layout::grid(v)] {
+            let p = processed.join(&name);
+            if p.is_file() {
+                grids.push((v, view.angle_deg, rig::ply::read_range_grid(&p)?));
+                break;
+            }
+        }
+    }
+    let crop = CropParams { radius_mm: crop.radius_mm.or(rig.platter_radius_mm), ..*crop };
+    let views: Vec<ViewGrid> = grids.iter().map(|(v, a, g)| ViewGrid { view: *v, angle_deg: *a, grid: g }).collect();
+    stages::register(&views, &axis, &crop, params).map_err(|source| Error::Stage { stage: Stage::Register, source })
+}

@@ -1,0 +1,380 @@
+//! The stages as functions: plain data in, a new value and a report out, or a typed error. `scanrig
+//! process` and every single-stage subcommand (`denoise`, `register`, `fuse`, `reconstruct`,
+//! `remesh`) call these same functions with the same parameter types, whose `Default`s are the one
+//! source of defaults — so a stage run alone and the same stage inside `process` write identical
+//! files for identical inputs.
+
+use crate::denoise::{DenoiseError, DenoiseParams, DenoiseReport};
+use crate::grid_normals::estimate_normals;
+use crate::icp::IcpError;
+use crate::mean_shift::{MeanShiftParams, MeanShiftReport};
+use crate::multiview::{MultiViewParams, MultiViewReport};
+use crate::placement::{CropParams, place_view};
+use crate::reconstruct::adfft::{AdFftParams, AdFftReport, reconstruct_adfft};
+use crate::reconstruct::global_fft::{FftParams, FftReport, ReconstructError, reconstruct_fft};
+use crate::register_scan::{ViewPose, register_grids};
+use crate::remesh::{RemeshError, RemeshParams, RemeshReport};
+use rig::math::{Isometry3, Point3, Real, Vector3};
+use rig::{PointCloud, PolyMesh, RangeGrid, TriMesh, TurntableAxis};
+use serde::{Deserialize, Serialize};
+
+/// Why a stage could not run on its input.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum StageError {
+    /// The frames cannot be decoded.
+    #[error(transparent)]
+    Decode(#[from] crate::structured_light::DecodeError),
+    /// A projector map of another size than the rig's camera.
+    #[error(
+        "the frames are {}×{} pixels but the rig's camera is {}×{}: the rig does not belong to these frames \
+         (check width_px and height_px in rig.toml)",
+        map.0, map.1, camera.0, camera.1
+    )]
+    MapSize {
+        /// The map's (frames') size.
+        map: (usize, usize),
+        /// The camera's size.
+        camera: (u32, u32),
+    },
+    /// Denoising refused the grid.
+    #[error(transparent)]
+    Denoise(#[from] DenoiseError),
+    /// Registration found too few views.
+    #[error("registration needs at least two views, found {0}")]
+    TooFewViews(usize),
+    /// Pairwise registration failed.
+    #[error("registration: {0}")]
+    Icp(#[from] IcpError),
+    /// The cloud cannot be meshed.
+    #[error(transparent)]
+    Reconstruct(#[from] ReconstructError),
+    /// The mesh cannot be remeshed.
+    #[error(transparent)]
+    Remesh(#[from] RemeshError),
+}
+
+/// Decodes one view's structured-light frames into a projector map (see [`decode::decode_view`]).
+pub fn decode(
+    frames: &[(rig::Pattern, &rig::image::Image8)],
+    projector_px: (u32, u32),
+    params: &crate::structured_light::DecodeParams,
+) -> Result<(crate::ProjectorMap, crate::structured_light::DecodeReport), StageError> {
+    Ok(crate::structured_light::decode_view(frames, projector_px.0, projector_px.1, params)?)
+}
+
+/// Triangulates a decoded view into a range grid in the camera frame (mm) with grid normals: the
+/// general ray–surface form of eq. 2.3 through `triangulator` (built once per rig), then normals
+/// from grid neighbours no farther apart than `normal_max_jump_mm`.
+pub fn triangulate(
+    map: &crate::ProjectorMap,
+    triangulator: &crate::triangulate::Triangulator,
+    params: &crate::triangulate::TriangulateParams,
+    normal_max_jump_mm: Real,
+) -> Result<(RangeGrid, super::GridReport), StageError> {
+    let camera = triangulator.camera_size();
+    if (map.width, map.height) != (camera.0 as usize, camera.1 as usize) {
+        return Err(StageError::MapSize { map: (map.width, map.height), camera });
+    }
+    let mut grid = triangulator.triangulate(map, params);
+    let normals = estimate_normals(&mut grid, normal_max_jump_mm);
+    let report = super::GridReport { points: grid.valid_count(), normals };
+    Ok((grid, report))
+}
+
+/// Denoising a range grid: the filter (ch. 4), then grid normals estimated again where the grid had
+/// them (the filter moves points, so the old normals no longer fit).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct DenoiseStage {
+    /// The filter.
+    pub filter: DenoiseParams,
+    /// Grid neighbours farther apart than this (the grid's units) are not used for its normals.
+    pub normal_max_jump: Real,
+}
+
+impl Default for DenoiseStage {
+    fn default() -> Self {
+        DenoiseStage { filter: DenoiseParams::default(), normal_max_jump: 2.0 }
+    }
+}
+
+/// Denoises frame `current` of `frames` using the frames within `temporal` of it (eq. 4.6; 0 filters
+/// the frame alone, eq. 4.3), and estimates its normals again where it had them.
+pub fn denoise(
+    frames: &[RangeGrid],
+    current: usize,
+    temporal: usize,
+    params: &DenoiseStage,
+) -> Result<(RangeGrid, DenoiseReport), StageError> {
+    let (mut clean, report) = crate::denoise::denoise_sequence(frames, current, temporal, &params.filter)?;
+    if clean.normals.is_some() {
+        estimate_normals(&mut clean, params.normal_max_jump);
+    }
+    Ok((clean, report))
+}
+
+/// One view to merge or register: its index, turntable angle (degrees) and range grid (camera
+/// frame, mm).
+#[derive(Debug, Clone, Copy)]
+pub struct ViewGrid<'a> {
+    /// View index (kept as the points' `view_id`).
+    pub view: usize,
+    /// Turntable angle, degrees, counter-clockwise seen from above.
+    pub angle_deg: Real,
+    /// The grid.
+    pub grid: &'a RangeGrid,
+}
+
+/// What merging did.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct MergeReport {
+    /// Points in the merged cloud.
+    pub points: usize,
+    /// Points each view kept inside the object cylinder, in view order.
+    pub placed_points: Vec<usize>,
+    /// Points that had no normal (laser lines; grid cells whose neighbours jump) and got a PCA normal
+    /// over their neighbours, turned toward their camera.
+    pub sensor_normals: usize,
+}
+
+/// Neighbours for the PCA normals of clouds without normals. 48, because laser samples are dense
+/// along each line and sparse across lines (a 2° step puts lines 1.7 mm apart at 50 mm from the axis,
+/// rows 0.3 mm apart): a dozen neighbours lie on one line, and their "plane" turns freely about it.
+pub const SENSOR_NORMAL_NEIGHBOURS: usize = 48;
+
+/// The camera → object pose of a view at `angle_deg` (the identity without a turntable).
+pub fn turntable_pose(turntable: Option<&TurntableAxis>, angle_deg: Real) -> Isometry3 {
+    turntable.map(|t| t.object_from_camera(angle_deg)).unwrap_or_else(Isometry3::identity)
+}
+
+/// Gives every point of a merged cloud without a normal (zero, or no normals at all) the PCA normal
+/// of its [`SENSOR_NORMAL_NEIGHBOURS`] neighbours, turned toward the camera of its view (`centres`:
+/// each view's camera centre in the object frame, by view id). Returns how many it filled.
+pub fn fill_normals(cloud: &mut PointCloud, centres: &std::collections::HashMap<u32, Point3>) -> usize {
+    use rayon::prelude::*;
+    let normals = cloud.normals.get_or_insert_with(|| vec![Vector3::zeros(); cloud.positions.len()]);
+    // Zero, NaN or infinite: no usable normal.
+    let unusable = |n: &Vector3| !n.norm_squared().is_finite() || n.norm_squared() <= 0.5;
+    let missing: Vec<usize> = (0..normals.len()).filter(|&i| unusable(&normals[i])).collect();
+    if missing.is_empty() {
+        return 0;
+    }
+    let tree = crate::normals::PointTree::new(&cloud.positions);
+    let filled: Vec<Vector3> = missing
+        .par_iter()
+        .map(|&i| {
+            let p = &cloud.positions[i];
+            let v = cloud.view_id.as_ref().map_or(0, |v| v[i]);
+            let toward = centres.get(&v).map_or(Vector3::z(), |c| c - p);
+            crate::normals::pca_normal(&cloud.positions, &tree, SENSOR_NORMAL_NEIGHBOURS, p, toward)
+        })
+        .collect();
+    let normals = cloud.normals.as_mut().expect("set above");
+    for (&i, n) in missing.iter().zip(filled) {
+        normals[i] = n;
+    }
+    missing.len()
+}
+
+/// Places each view in the object frame by its turntable pose, crops it to the object cylinder and
+/// merges them into one cloud with view ids and confidences; points without a normal get one
+/// ([`fill_normals`]), so every merged cloud is oriented.
+pub fn merge(views: &[ViewGrid], turntable: Option<&TurntableAxis>, crop: &CropParams) -> (PointCloud, MergeReport) {
+    use rayon::prelude::*;
+    let placed: Vec<PointCloud> = views
+        .par_iter()
+        .map(|v| place_view(v.grid, &turntable_pose(turntable, v.angle_deg), crop, v.view as u32))
+        .collect();
+    let mut report = MergeReport { placed_points: placed.iter().map(|c| c.len()).collect(), ..Default::default() };
+    let mut cloud = crate::placement::merge(placed);
+    let centres =
+        views.iter().map(|v| (v.view as u32, turntable_pose(turntable, v.angle_deg) * Point3::origin())).collect();
+    report.sensor_normals = fill_normals(&mut cloud, &centres);
+    report.points = cloud.len();
+    (cloud, report)
+}
+
+/// What registration did.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct RegisterReport {
+    /// Views registered.
+    pub views: usize,
+    /// The largest rotation of a view away from its turntable pose (degrees).
+    pub max_rotation_change_deg: Real,
+    /// The largest movement of a view's centroid away from its turntable pose (mm).
+    pub max_shift_mm: Real,
+    /// Points in the registered cloud.
+    pub points: usize,
+    /// Points given a PCA normal ([`fill_normals`]).
+    pub sensor_normals: usize,
+    /// The multi-view refinement's rounds.
+    pub refinement: MultiViewReport,
+}
+
+/// Refines the views' poses from the turntable's by multi-view ICP (ch. 2.2) and merges them again,
+/// cropped like [`merge`]. Returns the registered cloud and every view's pose.
+pub fn register(
+    views: &[ViewGrid],
+    axis: &TurntableAxis,
+    crop: &CropParams,
+    params: &MultiViewParams,
+) -> Result<(PointCloud, Vec<ViewPose>, RegisterReport), StageError> {
+    if views.len() < 2 {
+        return Err(StageError::TooFewViews(views.len()));
+    }
+    let refs: Vec<(usize, Real, &RangeGrid)> = views.iter().map(|v| (v.view, v.angle_deg, v.grid)).collect();
+    let (mut cloud, poses, refinement) = register_grids(&refs, axis, crop, params)?;
+    // The refined poses place the cameras too: the normals a point lacks turn toward its own.
+    let centres = poses.iter().map(|p| (p.view as u32, Point3::from(p.translation_mm()))).collect();
+    let sensor_normals = fill_normals(&mut cloud, &centres);
+    let report = RegisterReport {
+        sensor_normals,
+        views: views.len(),
+        max_rotation_change_deg: poses.iter().map(|p| p.rotation_change_deg).fold(0.0, Real::max),
+        max_shift_mm: poses.iter().map(|p| p.shift_mm).fold(0.0, Real::max),
+        points: cloud.len(),
+        refinement,
+    };
+    Ok((cloud, poses, report))
+}
+
+/// Fusion: mean shift (ch. 3), then — for inputs without normals, whose kernel normals have no side —
+/// a consistent orientation over a spanning tree of `orient_k` neighbours, the top facing up.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FuseParams {
+    /// Mean shift.
+    pub mean_shift: MeanShiftParams,
+    /// Neighbours per point in the orientation graph.
+    pub orient_k: usize,
+}
+
+impl Default for FuseParams {
+    fn default() -> Self {
+        FuseParams { mean_shift: MeanShiftParams::default(), orient_k: 12 }
+    }
+}
+
+/// What fusion did: mean shift's report, and how the normals were oriented.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct FuseReport {
+    /// Mean shift.
+    #[serde(flatten)]
+    pub mean_shift: MeanShiftReport,
+    /// Points removed in all (strays and isolated representatives).
+    pub points_removed: usize,
+    /// Where the input had no normals: the connected parts the spanning-tree orientation seeded.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub oriented_parts: Option<usize>,
+}
+
+/// Fusion's result: the fused cloud with normals, and which input points survived.
+#[derive(Debug, Clone)]
+pub struct Fused {
+    /// The fused cloud.
+    pub cloud: PointCloud,
+    /// Per input point: kept (true) or removed as an outlier.
+    pub kept: Vec<bool>,
+}
+
+impl Fused {
+    /// The input points removed as outliers (positions only).
+    pub fn outliers(&self, input: &PointCloud) -> PointCloud {
+        PointCloud::from_positions((0..input.len()).filter(|&i| !self.kept[i]).map(|i| input.positions[i]).collect())
+    }
+}
+
+/// Fuses a cloud (see [`FuseParams`]).
+pub fn fuse(cloud: &PointCloud, params: &FuseParams) -> Result<(Fused, FuseReport), StageError> {
+    let mut result = crate::mean_shift::mean_shift(cloud, &params.mean_shift);
+    let mut oriented_parts = None;
+    if cloud.normals.is_none()
+        && let Some(normals) = result.cloud.normals.as_mut()
+    {
+        oriented_parts =
+            Some(crate::orient::orient_by_spanning_tree(&result.cloud.positions, normals, params.orient_k));
+    }
+    let r = result.report;
+    let report = FuseReport { points_removed: r.strays + r.outliers_removed, mean_shift: r, oriented_parts };
+    Ok((Fused { cloud: result.cloud, kept: result.kept }, report))
+}
+
+/// The reconstruction method and its parameters (ch. 5).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "method")]
+pub enum ReconstructParams {
+    /// The global FFT method (Kazhdan 2005): one N³ grid.
+    Fft(FftParams),
+    /// AdFFT: local FFT solutions over an octree, blended by a partition of unity (thesis 5.3).
+    Adfft(AdFftParams),
+}
+
+impl Default for ReconstructParams {
+    fn default() -> Self {
+        ReconstructParams::Fft(FftParams::default())
+    }
+}
+
+/// What reconstruction did, by method.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "method")]
+pub enum ReconstructReport {
+    /// The global method's report.
+    Fft(FftReport),
+    /// AdFFT's report.
+    Adfft(AdFftReport),
+}
+
+impl ReconstructReport {
+    /// Grid points per axis (AdFFT: of the equivalent global grid).
+    pub fn n(&self) -> usize {
+        match self {
+            ReconstructReport::Fft(r) => r.n,
+            ReconstructReport::Adfft(r) => r.n,
+        }
+    }
+    /// Grid spacing, in the cloud's units.
+    pub fn cell(&self) -> Real {
+        match self {
+            ReconstructReport::Fft(r) => r.cell,
+            ReconstructReport::Adfft(r) => r.cell,
+        }
+    }
+    /// Triangles written.
+    pub fn triangles(&self) -> usize {
+        match self {
+            ReconstructReport::Fft(r) => r.triangles,
+            ReconstructReport::Adfft(r) => r.triangles,
+        }
+    }
+    /// Seconds spent.
+    pub fn seconds(&self) -> Real {
+        match self {
+            ReconstructReport::Fft(r) => r.seconds_splat + r.seconds_fft + r.seconds_extract,
+            ReconstructReport::Adfft(r) => r.seconds_octree + r.seconds_extract,
+        }
+    }
+}
+
+/// A watertight mesh of an oriented cloud.
+pub fn reconstruct(cloud: &PointCloud, params: &ReconstructParams) -> Result<(TriMesh, ReconstructReport), StageError> {
+    Ok(match params {
+        ReconstructParams::Fft(p) => {
+            let (m, r) = reconstruct_fft(cloud, p)?;
+            (m, ReconstructReport::Fft(r))
+        }
+        ReconstructParams::Adfft(p) => {
+            let (m, r) = reconstruct_adfft(cloud, p)?;
+            (m, ReconstructReport::Adfft(r))
+        }
+    })
+}
+
+/// A quad mesh of a triangle mesh (ch. 6).
+pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, RemeshReport), StageError> {
+    Ok(crate::remesh::remesh(mesh, params)?)
+}
+
+/// The registered poses as `registered.poses.json` holds them.
+pub fn poses_json(poses: &[ViewPose]) -> Vec<u8> {
+    serde_json::to_vec_pretty(poses).expect("poses serialise")
+}

@@ -1,0 +1,90 @@
+//! Registering a processed scan: every view's range grid (denoised where available) refined from its
+//! turntable pose by multi-view ICP ([`crate::multiview`]), then placed, cropped and merged again. What
+//! `scanrig register` runs on the output of `scanrig process`.
+
+use crate::grid_normals;
+use crate::icp::IcpError;
+use crate::multiview::{MultiViewParams, MultiViewReport, View, refine_views};
+use crate::placement::{CropParams, merge, place_view};
+use rig::math::{Isometry3, Real};
+use rig::{PointCloud, RangeGrid, TurntableAxis};
+use serde::Serialize;
+
+/// One view's refined pose and how far it moved from the turntable's.
+#[derive(Debug, Clone, Serialize)]
+pub struct ViewPose {
+    /// View index.
+    pub view: usize,
+    /// Turntable angle (degrees).
+    pub angle_deg: Real,
+    /// The refined camera → object transform, row-major 4 × 4.
+    pub object_from_camera: [[Real; 4]; 4],
+    /// Rotation between the turntable pose and the refined one (degrees).
+    pub rotation_change_deg: Real,
+    /// Movement of the view's centroid between the two poses (mm).
+    pub shift_mm: Real,
+}
+
+/// A grid's valid cells as a view: points, unit normals (grid normals, estimated if absent) and the
+/// cells on the grid's boundary.
+fn view_of(mut grid: RangeGrid) -> View {
+    if grid.normals.is_none() {
+        grid_normals::estimate_normals(&mut grid, 2.0);
+    }
+    let (w, h) = (grid.width, grid.height);
+    let normals = grid.normals.as_ref().expect("estimated above");
+    let cells: Vec<usize> = (0..w * h).filter(|&i| grid.valid[i] && normals[i].norm_squared() > 0.0).collect();
+    View {
+        points: cells.iter().map(|&i| grid.points[i]).collect(),
+        normals: cells.iter().map(|&i| normals[i]).collect(),
+        boundary: cells
+            .iter()
+            .map(|&i| {
+                let (c, r) = (i % w, i / w);
+                c == 0
+                    || r == 0
+                    || c + 1 == w
+                    || r + 1 == h
+                    || [i - 1, i + 1, i - w, i + w].iter().any(|&j| !grid.valid[j])
+            })
+            .collect(),
+    }
+}
+
+impl ViewPose {
+    /// The pose's translation: where the view's camera centre lies in the object frame (mm).
+    pub fn translation_mm(&self) -> rig::Vector3 {
+        let m = &self.object_from_camera;
+        rig::Vector3::new(m[0][3], m[1][3], m[2][3])
+    }
+}
+
+/// Refines the poses of views from their turntable poses by multi-view ICP and merges them again,
+/// cropped like the pipeline's merge. `grids` are (view index, turntable angle, range grid); at least
+/// two (see [`crate::pipeline::stages::register`]). Returns the registered cloud, every view's pose and the registration's report.
+pub fn register_grids(
+    grids: &[(usize, Real, &RangeGrid)],
+    axis: &TurntableAxis,
+    crop: &CropParams,
+    params: &MultiViewParams,
+) -> Result<(PointCloud, Vec<ViewPose>, MultiViewReport), IcpError> {
+    let views: Vec<View> = grids.iter().map(|(_, _, g)| view_of((*g).clone())).collect();
+    let initial: Vec<Isometry3> = grids.iter().map(|&(_, a, _)| axis.object_from_camera(a)).collect();
+    let (poses, report) = refine_views(&views, &initial, None, params)?;
+    let mut clouds = Vec::new();
+    let mut view_poses = Vec::new();
+    for (k, &(v, angle, grid)) in grids.iter().enumerate() {
+        clouds.push(place_view(grid, &poses[k], crop, v as u32));
+        let n = views[k].points.len().max(1) as Real;
+        let c = rig::Point3::from(views[k].points.iter().fold(rig::Vector3::zeros(), |a, p| a + p.coords) / n);
+        let m = poses[k].to_homogeneous();
+        view_poses.push(ViewPose {
+            view: v,
+            angle_deg: angle,
+            object_from_camera: std::array::from_fn(|r| std::array::from_fn(|col| m[(r, col)])),
+            rotation_change_deg: (poses[k].rotation.inverse() * initial[k].rotation).angle().to_degrees(),
+            shift_mm: (poses[k] * c - initial[k] * c).norm(),
+        });
+    }
+    Ok((merge(clouds), view_poses, report))
+}

@@ -1,0 +1,524 @@
+//! Non-local denoising against ground truth (issue 7's acceptance): range grids rendered by the
+//! simulator, noise added along normals or lines of sight, errors measured to the truth surface.
+
+use process::denoise::{DenoiseParams, Direction, Similarity, denoise, directions::least_squares_normals};
+use rig::math::{Isometry3, Point3, Real, Vector3};
+use rig::{RangeGrid, Sensor, TriMesh};
+use sim::{Albedo, Mount, Part, PartKind, Scene, SimConfig};
+use std::time::Instant;
+
+use crate::surface;
+use surface::{SurfaceDistance, zipper_mm};
+
+/// A range grid of `mesh` seen by a 640 × 512 camera, with its truth points and normals.
+struct Truth {
+    grid: RangeGrid,
+    normals: Vec<Vector3>,
+    diag: Real,
+}
+
+fn render(mesh: &TriMesh, turn: Vector3) -> Truth {
+    let cfg = SimConfig::builtin("structured-light").unwrap().with_camera_resolution(640, 512);
+    let b = mesh.bounding_box().unwrap();
+    let centre = (b.min.coords + b.max.coords) / 2.0;
+    let scale = 110.0 / (b.max - b.min).max();
+    let placed = TriMesh {
+        vertices: mesh.vertices.iter().map(|v| Point3::from((v.coords - centre) * scale)).collect(),
+        faces: mesh.faces.clone(),
+        normals: None,
+    };
+    let pose = Isometry3::new(Vector3::new(0.0, 0.0, 420.0), turn);
+    let part = Part {
+        kind: PartKind::Object,
+        surface: Box::new(sim::MeshSurface::new(&placed)),
+        pose,
+        mount: Mount::Fixed,
+        albedo: Albedo::Constant(0.8),
+    };
+    let scene = Scene { parts: vec![part] };
+    let g = sim::view_geometry(&scene, &cfg, &sim::pixel_rays(&cfg.rig.camera), &Isometry3::identity());
+    let mut grid = RangeGrid::empty(g.width, g.height, Sensor::Center(Point3::origin()));
+    for i in 0..g.kind.len() {
+        if g.kind[i] != 0 {
+            grid.points[i] = g.point[i];
+            grid.valid[i] = true;
+        }
+    }
+    Truth { grid, normals: g.normal.clone(), diag: 110.0 * (b.max - b.min).norm() / (b.max - b.min).max() }
+}
+
+/// Seeded Gaussian samples (Box–Muller over a 64-bit LCG).
+fn gaussians(n: usize, seed: u64) -> Vec<Real> {
+    let mut rng = fixtures::Lcg::new(seed);
+    (0..n).map(|_| rng.gaussian()).collect()
+}
+
+/// The truth grid displaced by noise of `sigma` along the truth normal or the line of sight.
+fn noisy(t: &Truth, sigma: Real, along_sight: bool, seed: u64) -> RangeGrid {
+    let mut g = t.grid.clone();
+    let z = gaussians(g.points.len(), seed);
+    for (i, zi) in z.iter().enumerate() {
+        if g.valid[i] {
+            let dir = if along_sight { g.line_of_sight(i).into_inner() } else { t.normals[i] };
+            g.points[i] += dir * (sigma * zi);
+        }
+    }
+    g
+}
+
+/// RMS distance of the grid's points to the truth surface (the tangent plane at each truth point).
+fn rms_error(g: &RangeGrid, t: &Truth) -> Real {
+    let (mut s, mut n) = (0.0, 0);
+    for i in 0..g.points.len() {
+        if g.valid[i] {
+            s += ((g.points[i] - t.grid.points[i]).dot(&t.normals[i])).powi(2);
+            n += 1;
+        }
+    }
+    (s / n as Real).sqrt()
+}
+
+/// Cells within 2 cells of a sharp edge (truth normals of neighbours more than 30° apart).
+fn near_sharp_edges(t: &Truth) -> Vec<usize> {
+    let (w, h) = (t.grid.width, t.grid.height);
+    let sharp: Vec<bool> = (0..w * h)
+        .map(|i| {
+            let (c, r) = (i % w, i / w);
+            t.grid.valid[i]
+                && [(1isize, 0isize), (0, 1)].iter().any(|&(dc, dr)| {
+                    let (cc, rr) = (c as isize + dc, r as isize + dr);
+                    cc < w as isize && rr < h as isize && {
+                        let j = rr as usize * w + cc as usize;
+                        t.grid.valid[j] && t.normals[i].dot(&t.normals[j]) < 30f64.to_radians().cos()
+                    }
+                })
+        })
+        .collect();
+    (0..w * h)
+        .filter(|&i| {
+            let (c, r) = ((i % w) as isize, (i / w) as isize);
+            t.grid.valid[i]
+                && (-2..=2).any(|dr| {
+                    (-2..=2).any(|dc| {
+                        let (cc, rr) = (c + dc, r + dr);
+                        (0..w as isize).contains(&cc)
+                            && (0..h as isize).contains(&rr)
+                            && sharp[rr as usize * w + cc as usize]
+                    })
+                })
+        })
+        .collect()
+}
+
+/// Mean angle (degrees) between the grid's least-squares normals and the truth normals over `cells`.
+fn normal_error(g: &RangeGrid, t: &Truth, cells: &[usize]) -> Real {
+    let n = least_squares_normals(g, 1);
+    let angles: Vec<Real> = cells
+        .iter()
+        .filter(|&&i| n[i].norm_squared() > 0.0)
+        .map(|&i| n[i].dot(&t.normals[i]).abs().clamp(0.0, 1.0).acos().to_degrees())
+        .collect();
+    angles.iter().sum::<Real>() / angles.len() as Real
+}
+
+struct Run {
+    label: String,
+    rms: Real,
+    edge_deg: Real,
+    seconds: Real,
+}
+
+fn run(g: &RangeGrid, t: &Truth, edges: &[usize], p: DenoiseParams, label: String) -> Run {
+    let start = Instant::now();
+    let (out, _) = denoise(g, &p).unwrap();
+    let seconds = start.elapsed().as_secs_f64();
+    Run { label, rms: rms_error(&out, t), edge_deg: normal_error(&out, t, edges), seconds }
+}
+
+fn compare_on(name: &str, mesh: &TriMesh, turn: Vector3) {
+    let t = render(mesh, turn);
+    let sigma = 0.002 * t.diag;
+    let g = noisy(&t, sigma, false, 7);
+    let edges = near_sharp_edges(&t);
+    let raw_rms = rms_error(&g, &t);
+    let nl: Vec<Run> = [(2usize, 1usize), (3, 1), (3, 2)]
+        .iter()
+        .flat_map(|&(window, half)| {
+            [(1usize, 1usize), (2, 1), (2, 2), (3, 1)].map(|(iterations, nw)| {
+                let p = DenoiseParams {
+                    window,
+                    similarity: Similarity::NonLocal { half },
+                    iterations,
+                    normal_window: nw,
+                    ..Default::default()
+                };
+                (p, format!("non-local N{} O{} ×{iterations} n{nw}", 2 * window + 1, 2 * half + 1))
+            })
+        })
+        .map(|(p, label)| run(&g, &t, &edges, p, label))
+        .collect();
+    let best_nl = nl.iter().min_by(|a, b| a.rms.total_cmp(&b.rms)).unwrap();
+    // The bilateral filter is cheaper per pass: give it the non-local filter's time in larger windows
+    // and more passes, and keep its best result that ran no longer.
+    let bl: Vec<Run> = [2usize, 3, 4, 5, 6]
+        .iter()
+        .flat_map(|&window| {
+            [1usize, 2, 3, 4].map(|iterations| {
+                let p = DenoiseParams { window, similarity: Similarity::Bilateral, iterations, ..Default::default() };
+                (p, format!("bilateral N{} ×{iterations}", 2 * window + 1))
+            })
+        })
+        .map(|(p, label)| run(&g, &t, &edges, p, label))
+        .collect();
+    let budget = best_nl.seconds * 1.05;
+    let fair: Vec<&Run> = bl.iter().filter(|r| r.seconds <= budget).collect();
+    let best_bl = fair
+        .iter()
+        .min_by(|a, b| a.rms.total_cmp(&b.rms))
+        .copied()
+        .unwrap_or_else(|| bl.iter().min_by(|a, b| a.seconds.total_cmp(&b.seconds)).unwrap());
+    eprintln!("{name}: σ = {sigma:.4} mm, raw RMS {raw_rms:.4} mm, {} cells near sharp edges", edges.len());
+    for r in nl.iter().chain(&bl) {
+        eprintln!("  {:<24} RMS {:.4} mm  edge normals {:5.2}°  {:.3} s", r.label, r.rms, r.edge_deg, r.seconds);
+    }
+    eprintln!(
+        "  best non-local {} (RMS {:.4}, edges {:.2}°) vs best bilateral within {:.3} s {} (RMS {:.4}, edges {:.2}°): ratio {:.3}, edges {:.3}",
+        best_nl.label,
+        best_nl.rms,
+        best_nl.edge_deg,
+        budget,
+        best_bl.label,
+        best_bl.rms,
+        best_bl.edge_deg,
+        best_nl.rms / best_bl.rms,
+        best_nl.edge_deg / best_bl.edge_deg
+    );
+    assert!(best_nl.rms <= 0.75 * best_bl.rms, "{name}: RMS ratio {}", best_nl.rms / best_bl.rms);
+    assert!(best_nl.edge_deg <= 0.8 * best_bl.edge_deg, "{name}: edge ratio {}", best_nl.edge_deg / best_bl.edge_deg);
+}
+
+#[test]
+fn non_local_beats_bilateral_at_equal_runtime_on_sharp_and_organic_shapes() {
+    for (name, rel, turn) in [
+        ("fandisk", "common-3d-test-models/fandisk.obj", Vector3::new(0.5, 2.4, 0.0)),
+        ("spot", "common-3d-test-models/spot/spot_triangulated.obj", Vector3::new(0.2, 2.2, 0.0)),
+    ] {
+        let Some(path) = fixtures::mesh(rel) else { return };
+        let mesh = rig::read_mesh(&path).unwrap().triangulate();
+        compare_on(name, &mesh, turn);
+    }
+}
+
+#[test]
+fn filtering_along_the_line_of_sight_suits_view_dependent_noise() {
+    let Some(path) = fixtures::mesh("common-3d-test-models/spot/spot_triangulated.obj") else { return };
+    let t = render(&rig::read_mesh(&path).unwrap().triangulate(), Vector3::new(0.2, 2.2, 0.0));
+    let g = noisy(&t, 0.002 * t.diag, true, 9);
+    let base = DenoiseParams::default();
+    let (sight, _) = denoise(&g, &DenoiseParams { direction: Direction::LineOfSight, ..base }).unwrap();
+    let (normal, _) = denoise(&g, &DenoiseParams { direction: Direction::Normal, ..base }).unwrap();
+    // View-dependent noise moves each sample along its own ray, so its error is the distance to the truth
+    // sample on that ray: filtering along normals leaves the along-surface part of the noise behind.
+    let euclid = |g: &RangeGrid| {
+        let (mut s, mut n) = (0.0, 0);
+        for i in 0..g.points.len() {
+            if g.valid[i] {
+                s += (g.points[i] - t.grid.points[i]).norm_squared();
+                n += 1;
+            }
+        }
+        (s / n as Real).sqrt()
+    };
+    let (rs, rn, raw) = (euclid(&sight), euclid(&normal), euclid(&g));
+    eprintln!(
+        "view-dependent noise: RMS to the truth samples raw {raw:.4} mm, along the line of sight {rs:.4}, along normals {rn:.4}: ratio {:.3} (to the surface: {:.4} vs {:.4})",
+        rs / rn,
+        rms_error(&sight, &t),
+        rms_error(&normal, &t)
+    );
+    assert!(rs <= 0.8 * rn, "ratio {}", rs / rn);
+}
+
+fn median_rms(mut d: Vec<Real>) -> (Real, Real) {
+    let rms = (d.iter().map(|x| x * x).sum::<Real>() / d.len() as Real).sqrt();
+    d.sort_by(Real::total_cmp);
+    (d[d.len() / 2], rms)
+}
+
+/// The bunny scans' distances to bun_zipper (mm) after filtering each with `p` in its own grid, then
+/// placing it by bun.conf, and the raw distances of the same cells (lone cells dropped by the filter
+/// are in neither); with the number of lone cells dropped.
+fn bunny_distances(surface: &SurfaceDistance, p: &DenoiseParams) -> Option<(Vec<Real>, Vec<Real>, usize)> {
+    let poses = fixtures::bunny_poses_mm()?;
+    let (mut d, mut raw, mut dropped) = (Vec::new(), Vec::new(), 0);
+    for name in fixtures::BUNNY_SCANS {
+        let grid = rig::ply::read_range_grid(&fixtures::bunny_scan(name)?).unwrap();
+        let (clean, report) = denoise(&grid, p).unwrap();
+        dropped += report.isolated_dropped;
+        let pose = poses[name];
+        for i in (0..clean.points.len()).filter(|&i| clean.valid[i]) {
+            d.push(surface.distance(&(pose * (clean.points[i] * 1000.0))));
+            raw.push(surface.distance(&(pose * (grid.points[i] * 1000.0))));
+        }
+    }
+    Some((d, raw, dropped))
+}
+
+/// The tuning sweep behind issue 7's bunny figures
+/// (`cargo test --release -p process --test process denoise::bunny_sweep -- --ignored --nocapture`): median and RMS distance to bun_zipper for filter settings.
+/// Bandwidths are in the scans' unit, metres.
+#[test]
+#[ignore]
+fn bunny_sweep() {
+    let Some(zipper) = fixtures::data_file("stanford-bunny/reconstruction/bun_zipper.ply") else { return };
+    let surface = SurfaceDistance::new(&zipper_mm(&zipper), 1.5);
+    let auto = None;
+    let mm = |d: Real, s: Real| Some((d * 1e-3, s * 1e-3));
+    for (window, half, iterations, bandwidth, direction) in [
+        (3, 2, 1, auto, Direction::Normal),
+        (3, 2, 2, auto, Direction::Normal),
+        (3, 2, 1, auto, Direction::LineOfSight),
+        (2, 1, 1, auto, Direction::Normal),
+        (2, 1, 2, auto, Direction::Normal),
+        (1, 1, 2, auto, Direction::Normal),
+        (3, 2, 1, mm(1.5, 0.1), Direction::Normal),
+        (3, 2, 1, mm(2.0, 0.15), Direction::Normal),
+        (2, 1, 1, mm(1.7, 3.0), Direction::Normal),
+        (2, 1, 1, mm(1.7, 3.0), Direction::LineOfSight),
+        (1, 1, 2, mm(0.8, 1.0), Direction::Normal),
+        (1, 1, 2, mm(1.0, 0.3), Direction::Normal),
+        (1, 1, 2, mm(1.2, 0.3), Direction::Normal),
+        (1, 1, 2, mm(1.2, 1.0), Direction::Normal),
+        (1, 1, 2, mm(1.2, 3.0), Direction::Normal),
+        (1, 1, 2, mm(1.2, 1e6), Direction::Normal),
+        (1, 1, 2, mm(1.5, 3.0), Direction::Normal),
+        (3, 1, 1, mm(1.5, 1e6), Direction::Normal),
+        (1, 1, 3, mm(1.2, 3.0), Direction::Normal),
+    ] {
+        let p = DenoiseParams {
+            window,
+            similarity: Similarity::NonLocal { half },
+            iterations,
+            direction,
+            bandwidth,
+            ..Default::default()
+        };
+        let (d, _, _) = bunny_distances(&surface, &p).unwrap();
+        let (m, r) = median_rms(d);
+        eprintln!(
+            "N{} O{} ×{iterations} {bandwidth:?} {direction:?}: median {m:.4} mm ({:.3}×), RMS {r:.4} mm ({:.3}×)",
+            2 * window + 1,
+            2 * half + 1,
+            m / 0.0643,
+            r / 0.2024
+        );
+    }
+}
+
+/// The floor under `stanford_bunny_scans_move_toward_the_zippered_surface`'s median (`cargo test
+/// --release -p process --test process denoise::bunny_offsets -- --ignored --nocapture`): each raw scan's signed
+/// offsets from bun_zipper, box-averaged over k × k cells of its grid. This is what a smoother that knew
+/// the surface would leave (no shrinkage, noise averaged over k² cells); the filters of the scan alone
+/// tried in `bunny_sweep`, which must also tell noise from shape, did worse at every window size.
+/// Printed: 3 × 3 0.82×, 7 × 7 0.73×, 13 × 13 0.66× of the raw median.
+#[test]
+#[ignore]
+fn bunny_offsets_smoothed_with_the_surface_known() {
+    let Some(zipper) = fixtures::data_file("stanford-bunny/reconstruction/bun_zipper.ply") else { return };
+    let Some(poses) = fixtures::bunny_poses_mm() else { return };
+    let mesh = zipper_mm(&zipper);
+    let surface = SurfaceDistance::new(&mesh, 1.5);
+    let mut offsets = Vec::new();
+    for name in fixtures::BUNNY_SCANS {
+        let grid = rig::ply::read_range_grid(&fixtures::bunny_scan(name).unwrap()).unwrap();
+        let signed: Vec<Option<Real>> = (0..grid.points.len())
+            .map(|i| {
+                let p = poses[name] * (grid.points[i] * 1000.0);
+                let (d, t) = grid.valid[i].then(|| surface.nearest(&p)).flatten()?;
+                let side = (p - mesh.vertices[mesh.faces[t][0] as usize]).dot(&surface.triangle_normal(t));
+                // The 79 mm flying pixel would smear into its neighbours' averages.
+                (d < 50.0).then_some(if side >= 0.0 { d } else { -d })
+            })
+            .collect();
+        offsets.push((grid.width, grid.height, signed));
+    }
+    for half in [1usize, 3, 6] {
+        let mut smoothed = Vec::new();
+        for (w, h, signed) in &offsets {
+            for i in (0..w * h).filter(|&i| signed[i].is_some()) {
+                let (c, r) = (i % w, i / w);
+                let window: Vec<Real> = (r.saturating_sub(half)..=(r + half).min(h - 1))
+                    .flat_map(|rr| (c.saturating_sub(half)..=(c + half).min(w - 1)).map(move |cc| rr * w + cc))
+                    .filter_map(|j| signed[j])
+                    .collect();
+                smoothed.push((window.iter().sum::<Real>() / window.len() as Real).abs());
+            }
+        }
+        let (m, _) = median_rms(smoothed);
+        eprintln!(
+            "signed offsets averaged over {k} × {k} cells: median {m:.4} mm ({:.3}× the raw 0.0643)",
+            m / 0.0643,
+            k = 2 * half + 1
+        );
+    }
+}
+
+/// Issue 7, acceptance 4: each raw Stanford scan filtered on its own grid, then placed by bun.conf,
+/// moves toward bun_zipper by ≥ 20 % in median and RMS distance against the raw figures (0.0643 and
+/// 0.2024 mm). The setting is the best of `bunny_sweep`: a 3 × 3 neighbourhood and patch, two passes,
+/// d 1.2 mm, s 1 mm. It sits on a plateau (the sweep's d 1.2 and 1.5 mm with s from 1 mm to off all
+/// give 0.796×). At s = 1 mm the similarity term changes the displacements by 8 % but not the
+/// figures: it only stops averaging between patches whose heights differ by a millimetre or so, and a
+/// tighter s (0.3 mm: 0.802×; the automatic one, ~0.05 mm: 0.885×) makes the median worse on these
+/// scans. The thesis's default setting is printed too.
+///
+/// Why no setting reaches much below 0.80× in median: a smoother that knew the surface
+/// (`bunny_offsets_smoothed_with_the_surface_known`) would leave 0.82× over 3 × 3 cells, 0.73× over 7 × 7
+/// and 0.66× over 13 × 13, so part of the offsets is structure millimetres wide; and a filter of the
+/// scan alone must not shrink the bunny's curves, which costs neighbourhoods wider than 3 × 3 more than
+/// they gain (7 × 7 with the similarity off: 0.885×).
+///
+/// The RMS goal rests on the lone cells the filter drops (one of them 79 mm off): over the cells it
+/// keeps, the raw RMS is 0.154 mm and the filtered one 0.84× of that, which the test prints beside and
+/// checks only for improvement.
+#[test]
+fn stanford_bunny_scans_move_toward_the_zippered_surface() {
+    let Some(zipper) = fixtures::data_file("stanford-bunny/reconstruction/bun_zipper.ply") else { return };
+    let Some(poses) = fixtures::bunny_poses_mm() else { return };
+    let surface = SurfaceDistance::new(&zipper_mm(&zipper), 1.5);
+    let mut raw = Vec::new();
+    for name in fixtures::BUNNY_SCANS {
+        let Some(path) = fixtures::bunny_scan(name) else { return };
+        let grid = rig::ply::read_range_grid(&path).unwrap();
+        for i in (0..grid.points.len()).filter(|&i| grid.valid[i]) {
+            raw.push(surface.distance(&(poses[name] * (grid.points[i] * 1000.0))));
+        }
+    }
+    assert_eq!(raw.len(), 362_272);
+    let (rm, rr) = median_rms(raw);
+    let best = DenoiseParams {
+        window: 1,
+        similarity: Similarity::NonLocal { half: 1 },
+        iterations: 2,
+        bandwidth: Some((1.2e-3, 1e-3)),
+        ..Default::default()
+    };
+    for (label, p) in
+        [("thesis default (N7 O5, automatic d and s)", DenoiseParams::default()), ("best of the sweep", best)]
+    {
+        let (d, kept_raw, dropped) = bunny_distances(&surface, &p).unwrap();
+        let (n, (fm, fr), (km, kr)) = (d.len(), median_rms(d), median_rms(kept_raw));
+        eprintln!(
+            "bunny, {label}: {n} points ({dropped} lone cells dropped); raw median {rm:.4} mm RMS {rr:.4} mm; denoised median {fm:.4} mm ({:.3}×) RMS {fr:.4} mm ({:.3}×); over the kept cells raw median {km:.4} RMS {kr:.4}: {:.3}× and {:.3}×",
+            fm / rm,
+            fr / rr,
+            fm / km,
+            fr / kr
+        );
+        assert!(fm < km && fr < kr, "{label}: like for like, median ratio {} RMS ratio {}", fm / km, fr / kr);
+        if p == best {
+            assert!(fm <= 0.8 * rm && fr <= 0.8 * rr, "median ratio {} RMS ratio {}", fm / rm, fr / rr);
+        }
+    }
+}
+
+#[test]
+fn temporal_filtering_steadies_a_sequence_without_losing_accuracy() {
+    let Some(path) = fixtures::mesh("common-3d-test-models/spot/spot_triangulated.obj") else { return };
+    let mesh = rig::read_mesh(&path).unwrap().triangulate();
+    let cfg = SimConfig::builtin("structured-light").unwrap().with_camera_resolution(320, 256);
+    let b = mesh.bounding_box().unwrap();
+    let centre = (b.min.coords + b.max.coords) / 2.0;
+    let scale = 80.0 / (b.max - b.min).max();
+    let placed = TriMesh {
+        vertices: mesh.vertices.iter().map(|v| Point3::from((v.coords - centre) * scale)).collect(),
+        faces: mesh.faces.clone(),
+        normals: None,
+    };
+    let diag = 80.0 * (b.max - b.min).norm() / (b.max - b.min).max();
+    let sigma = 0.002 * diag;
+    let rays = sim::pixel_rays(&cfg.rig.camera);
+    // A wall 480 mm away and the object turning 0.4° per frame in front of it.
+    let frames: Vec<(Truth, RangeGrid)> = (0..10)
+        .map(|k| {
+            let pose = Isometry3::new(Vector3::new(0.0, 0.0, 400.0), Vector3::new(0.2, 2.2 + 0.007 * k as Real, 0.0));
+            let wall = Isometry3::translation(0.0, 0.0, 480.0);
+            let scene = Scene {
+                parts: vec![
+                    Part {
+                        kind: PartKind::Object,
+                        surface: Box::new(sim::MeshSurface::new(&placed)),
+                        pose,
+                        mount: Mount::Fixed,
+                        albedo: Albedo::Constant(0.8),
+                    },
+                    Part {
+                        kind: PartKind::Other,
+                        surface: Box::new(sim::Rectangle { half_width: 300.0, half_height: 300.0 }),
+                        pose: wall,
+                        mount: Mount::Fixed,
+                        albedo: Albedo::Constant(0.8),
+                    },
+                ],
+            };
+            let g = sim::view_geometry(&scene, &cfg, &rays, &Isometry3::identity());
+            let mut grid = RangeGrid::empty(g.width, g.height, Sensor::Center(Point3::origin()));
+            for i in 0..g.kind.len() {
+                if g.kind[i] != 0 {
+                    grid.points[i] = g.point[i];
+                    grid.valid[i] = true;
+                }
+            }
+            let t = Truth { grid, normals: g.normal.clone(), diag };
+            let noisy_grid = noisy(&t, sigma, false, 100 + k as u64);
+            (t, noisy_grid)
+        })
+        .collect();
+    let on_wall: Vec<bool> = (0..frames[0].0.grid.points.len())
+        .map(|i| frames.iter().all(|(t, _)| t.grid.valid[i] && (t.grid.points[i].z - 480.0).abs() < 1e-6))
+        .collect();
+    // Static surface: wall pixels whose whole filter support (the 7 × 7 window grown by the 5 × 5
+    // patch) is wall in every frame — nearer the silhouette the turning object passes through it.
+    let (gw, gh) = (frames[0].0.grid.width as isize, frames[0].0.grid.height as isize);
+    let reach = 5isize;
+    let wall: Vec<bool> = (0..on_wall.len())
+        .map(|i| {
+            let (c, r) = (i as isize % gw, i as isize / gw);
+            (-reach..=reach).all(|dr| {
+                (-reach..=reach).all(|dc| {
+                    let (cc, rr) = (c + dc, r + dr);
+                    cc >= 0 && rr >= 0 && cc < gw && rr < gh && on_wall[(rr * gw + cc) as usize]
+                })
+            })
+        })
+        .collect();
+    let grids: Vec<RangeGrid> = frames.iter().map(|f| f.1.clone()).collect();
+    let params = DenoiseParams::default();
+    let single: Vec<RangeGrid> = (0..10).map(|k| denoise(&grids[k], &params).unwrap().0).collect();
+    let temporal: Vec<RangeGrid> =
+        (0..10).map(|k| process::denoise::denoise_sequence(&grids, k, 1, &params).unwrap().0).collect();
+    // Flicker: RMS frame-to-frame change of the wall, deep inside it (away from the object's silhouette).
+    let flicker = |seq: &[RangeGrid]| {
+        let (mut s, mut n) = (0.0, 0);
+        for k in 0..9 {
+            for i in (0..wall.len()).filter(|&i| wall[i]) {
+                s += (seq[k + 1].points[i] - seq[k].points[i]).norm_squared();
+                n += 1;
+            }
+        }
+        (s / n as Real).sqrt()
+    };
+    let error = |seq: &[RangeGrid]| {
+        (0..10).map(|k| rms_error(&seq[k], &frames[k].0).powi(2)).sum::<Real>().sqrt() / (10.0 as Real).sqrt()
+    };
+    let (fs, ft, es, et) = (flicker(&single), flicker(&temporal), error(&single), error(&temporal));
+    eprintln!(
+        "sequence: raw flicker {:.4} mm; per-frame filtering flicker {fs:.4} mm, RMS error {es:.4}; ±1-frame filtering flicker {ft:.4} mm ({:.3}×), RMS error {et:.4}",
+        flicker(&grids),
+        ft / fs
+    );
+    // Issue 7, acceptance 3: flicker ≤ 0.5 × per-frame filtering (measured 0.41 × with directions from
+    // ±2 frames; 0.82 × when each frame took its own normals), with RMS error no worse.
+    assert!(ft <= 0.5 * fs, "flicker ratio {}", ft / fs);
+    assert!(et <= es * 1.001, "temporal RMS {et} vs per-frame {es}");
+}

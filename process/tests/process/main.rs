@@ -1,0 +1,11 @@
+//! The geometry pipeline's integration tests, in one binary: each module is one area.
+
+mod acceptance;
+mod denoise;
+mod icp;
+mod mean_shift;
+mod reconstruct;
+mod register_fuse;
+mod remesh_fields;
+mod remesh_quads;
+mod surface;

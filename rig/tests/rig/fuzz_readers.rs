@@ -1,0 +1,311 @@
+//! Fuzzing the readers: PLY (header, body and conversions), OBJ, OFF, OpenCV YAML, rig TOML, NumPy
+//! arrays, PNG frames and the scan manifest must
+//! return `Ok` or a typed error for any bytes — never panic, never allocate past what the input holds.
+//!
+//! Two harnesses: proptest over arbitrary bytes, and a seeded mutational fuzzer that starts from valid
+//! files of every format and flips, deletes, duplicates, splices and renumbers their bytes, which
+//! reaches far deeper into the parsers than random bytes do. By default it runs a fixed number of
+//! inputs (quick, for CI);
+//! `SCANRIG_FUZZ_SECS=600 cargo test --release -p rig --test rig fuzz_readers:: -- --nocapture` runs it for ten minutes and prints how many inputs it tried. A crashing input is
+//! written to the temp folder and its seed printed, so it can be replayed.
+
+use proptest::prelude::*;
+use rig::ply::{self, Encoding, Precision, WriteOptions};
+use rig::{Point3, PointCloud, PolyMesh, Vector3};
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::time::{Duration, Instant};
+
+/// Runs every reader over the bytes; the results are irrelevant, only that they return.
+fn read_everything(bytes: &[u8]) {
+    if let Ok(p) = ply::parse(bytes) {
+        let _ = ply::cloud_from_ply(&p);
+        let _ = ply::mesh_from_ply(&p);
+        let _ = ply::range_grid_from_ply(&p);
+        let _ = p.header.units();
+    }
+    let _ = rig::obj::parse(bytes);
+    let _ = rig::off::parse(bytes);
+    let _ = rig::opencv_yaml::camera_from_bytes(bytes);
+    let _ = rig::Rig::from_toml_str(&String::from_utf8_lossy(bytes));
+    let _ = rig::npy::parse(bytes);
+    let _ = rig::image::decode_png(bytes);
+    let _ = rig::image::decode_jpeg(bytes);
+    let _ = rig::Manifest::from_json(bytes);
+    let _ = rig::remesh_inputs::parse_constraints(bytes);
+    let _ = rig::remesh_inputs::parse_face_values(bytes, 3);
+}
+
+fn seeds() -> Vec<Vec<u8>> {
+    let verts = vec![
+        Point3::new(0.0, 0.0, 0.0),
+        Point3::new(1.0, 0.0, 0.0),
+        Point3::new(1.0, 1.0, 0.0),
+        Point3::new(0.0, 1.0, 0.5),
+    ];
+    let mut mesh = PolyMesh::from_faces(verts.clone(), [vec![0u32, 1, 2], vec![0, 1, 2, 3]]);
+    mesh.normals = Some(vec![Vector3::z(); 4]);
+    let cloud = PointCloud {
+        positions: verts,
+        normals: Some(vec![Vector3::x(); 4]),
+        colors: Some(vec![[1, 2, 3]; 4]),
+        confidence: Some(vec![0.5; 4]),
+        view_id: Some(vec![7; 4]),
+    };
+    let mut out = Vec::new();
+    for encoding in [Encoding::Ascii, Encoding::BinaryLittleEndian, Encoding::BinaryBigEndian] {
+        for precision in [Precision::F32, Precision::F64] {
+            let opts = WriteOptions { encoding, precision, comments: vec!["units mm".into()] };
+            out.push(ply::mesh_to_bytes(&mesh, &opts));
+            out.push(ply::cloud_to_bytes(&cloud, &opts));
+        }
+    }
+    out.push(
+        b"ply\nformat ascii 1.0\nobj_info num_cols 2\nobj_info num_rows 2\nelement vertex 2\nproperty float x\n\
+property float y\nproperty float z\nelement range_grid 4\nproperty list uchar int vertex_indices\nend_header\n\
+0 0 0\n1 1 1\n1 0\n0\n1 1\n0\n"
+            .to_vec(),
+    );
+    out.push(
+        b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+element tristrips 1\nproperty list int int vertex_indices\nend_header\n"
+            .iter()
+            .copied()
+            .chain((0..9).flat_map(|i: i32| (i as f32).to_le_bytes()))
+            .chain([4i32, 0, 1, 2, -1].iter().flat_map(|v| v.to_le_bytes()))
+            .collect(),
+    );
+    out.push(rig::obj::mesh_to_bytes(&mesh));
+    out.push(rig::obj::cloud_to_bytes(&cloud));
+    out.push(b"# obj\no thing\nv 0 0 0\nv 1 0 0\nv 0 1 0 0.5 0.5 0.5\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1\nf -3//1 -2//1 -1//1\nusemtl x\n".to_vec());
+    out.push(b"OFF\n# c\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n4 0 1 2 3 255 0 0\n".to_vec());
+    out.push(b"COFF 3 1 0\n0 0 0 1 1 1 1\n1 0 0 1 1 1 1\n0 1 0 1 1 1 1\n3 0 1 2\n".to_vec());
+    out.push(include_bytes!("../fixtures/opencv_camera.yml").to_vec());
+    out.push(include_bytes!("../fixtures/opencv_camera_distortion_col.yml").to_vec());
+    out.push(
+        b"format = 1\nname = \"r\"\n[camera]\nwidth_px = 640\nheight_px = 480\nfx_px = 500.0\nfy_px = 500.0\ncx_px = 320.0\n\
+cy_px = 240.0\ndistortion = [0.1, 0.0, 0.0, 0.0, 0.0]\n[[lasers]]\nname = \"l\"\nnormal = [1.0, 0.0, 1.0]\ndistance_mm = 100.0\n\
+[turntable]\naxis_point_mm = [0.0, 50.0, 400.0]\naxis_direction = [0.0, -1.0, 0.0]\n"
+            .to_vec(),
+    );
+    let npy = |data| rig::npy::to_bytes(&rig::npy::NpyArray { shape: vec![2, 2], data });
+    out.push(npy(rig::npy::NpyData::F64(vec![1.0, 2.0, 3.0, 4.0])));
+    out.push(npy(rig::npy::NpyData::U8(vec![1, 2, 3, 4])));
+    out.push(rig::image::png_bytes(&rig::image::Image8::gray(4, 3, (0..12).collect()), true));
+    let manifest = rig::Manifest {
+        format: rig::scan_folder::SCAN_FORMAT,
+        method: rig::Method::StructuredLight,
+        rig: "rig.toml".into(),
+        source: "fuzz".into(),
+        seed: Some(1),
+        views: vec![rig::scan_folder::View {
+            angle_deg: 10.0,
+            frames: rig::patterns::structured_light_sequence(4, 2, &[])
+                .into_iter()
+                .map(|pattern| rig::scan_folder::Frame { file: format!("f/{}.png", pattern.name()), pattern })
+                .collect(),
+            complete: true,
+            held: false,
+        }],
+    };
+    out.push(serde_json::to_vec_pretty(&manifest).unwrap());
+    out.push(b"# remesh constraints\n12 45 78 90\np 0.0 1.0 2.0  0.5 1.2 2.1\n".to_vec());
+    out.push(b"1.0 0.5\n# insulator\n0\n".to_vec());
+    out
+}
+
+/// xorshift64*: a small, seeded, dependency-free generator, so a failing input replays from its seed.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
+    }
+    fn below(&mut self, n: usize) -> usize {
+        if n == 0 { 0 } else { (self.next() % n as u64) as usize }
+    }
+}
+
+const TOKENS: &[&[u8]] = &[
+    b"0",
+    b"-1",
+    b"255",
+    b"256",
+    b"4294967295",
+    b"4294967296",
+    b"-2147483649",
+    b"1e308",
+    b"nan",
+    b"inf",
+    b"-0",
+    b"3.5",
+    b"\n",
+    b" ",
+    b"end_header\n",
+    b"element face 3\n",
+    b"property list uchar int vertex_indices\n",
+    b"property list uint uint a\n",
+    b"format binary_big_endian 1.0\n",
+    b"obj_info num_cols 9\n",
+    b"f 1 2 3\n",
+    b"v 1 2 3\n",
+    b"data: [ 1., 2. ]\n",
+    b"!!opencv-matrix\n",
+    b"rows: 3\n",
+    b"]",
+    b"[",
+    b"//",
+    b"/",
+    b"#",
+    b"=",
+    b"\"",
+    b"\xff\xff\xff\xff",
+    b"\0\0\0\0",
+    b"\x7f\xff\xff\xff",
+];
+
+fn mutate(rng: &mut Rng, input: &mut Vec<u8>) {
+    let rounds = 1 + rng.below(4);
+    for _ in 0..rounds {
+        let len = input.len();
+        match rng.below(8) {
+            0 if len > 0 => {
+                let i = rng.below(len);
+                input[i] ^= 1 << rng.below(8);
+            }
+            1 if len > 0 => {
+                let i = rng.below(len);
+                input[i] = [0u8, 0xff, b'\n', b' ', b'-', b'9', b'.', 0x7f][rng.below(8)];
+            }
+            2 if len > 0 => {
+                let i = rng.below(len);
+                let n = 1 + rng.below((len - i).min(64));
+                input.drain(i..i + n);
+            }
+            3 if len > 0 => {
+                let i = rng.below(len);
+                let n = 1 + rng.below((len - i).min(64));
+                let chunk = input[i..i + n].to_vec();
+                let at = rng.below(len);
+                input.splice(at..at, chunk);
+            }
+            4 => {
+                let tok = TOKENS[rng.below(TOKENS.len())];
+                let at = rng.below(len + 1);
+                input.splice(at..at, tok.iter().copied());
+            }
+            5 if len > 0 => {
+                // Replace a run of digits (a count, an index, a coordinate) with an interesting number.
+                let start = rng.below(len);
+                if let Some(off) = input[start..].iter().position(u8::is_ascii_digit) {
+                    let s = start + off;
+                    let e = s + input[s..].iter().take_while(|b| b.is_ascii_digit()).count();
+                    let tok = TOKENS[rng.below(12)];
+                    input.splice(s..e, tok.iter().copied());
+                }
+            }
+            6 if len > 0 => input.truncate(rng.below(len)),
+            _ => {
+                let n = rng.below(16);
+                let at = rng.below(len + 1);
+                let bytes: Vec<u8> = (0..n).map(|_| rng.next() as u8).collect();
+                input.splice(at..at, bytes);
+            }
+        }
+    }
+}
+
+#[test]
+fn mutated_files_never_panic() {
+    let secs: u64 = std::env::var("SCANRIG_FUZZ_SECS").ok().and_then(|s| s.parse().ok()).unwrap_or(0);
+    let min_cases: u64 = std::env::var("SCANRIG_FUZZ_CASES").ok().and_then(|s| s.parse().ok()).unwrap_or(20_000);
+    let seed: u64 = std::env::var("SCANRIG_FUZZ_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(0x05ca_9419);
+    let deadline = Instant::now() + Duration::from_secs(secs);
+    let seeds = seeds();
+    // The seeds themselves must be valid: otherwise the fuzzer explores only error paths.
+    for (i, s) in seeds.iter().enumerate() {
+        let ok = ply::parse(s).is_ok()
+            || rig::obj::parse(s).is_ok_and(|o| !o.mesh.vertices.is_empty())
+            || rig::off::parse(s).is_ok()
+            || rig::opencv_yaml::camera_from_bytes(s).is_ok()
+            || rig::Rig::from_toml_str(&String::from_utf8_lossy(s)).is_ok()
+            || rig::npy::parse(s).is_ok()
+            || rig::image::decode_png(s).is_ok()
+            || rig::Manifest::from_json(s).is_ok()
+            || rig::remesh_inputs::parse_constraints(s).is_ok_and(|c| !c.is_empty())
+            || rig::remesh_inputs::parse_face_values(s, 3).is_ok();
+        assert!(ok, "seed {i} does not parse");
+    }
+    let mut tried = 0u64;
+    let mut case = 0u64;
+    while case < min_cases || Instant::now() < deadline {
+        let case_seed = seed ^ case.wrapping_mul(0x9e37_79b9_7f4a_7c15);
+        let mut rng = Rng(case_seed | 1);
+        let mut input = seeds[rng.below(seeds.len())].clone();
+        // Stack mutations: a few rounds on the same input before starting from a seed again.
+        for _ in 0..1 + rng.below(6) {
+            mutate(&mut rng, &mut input);
+            if catch_unwind(AssertUnwindSafe(|| read_everything(&input))).is_err() {
+                let path = std::env::temp_dir().join(format!("scanrig-fuzz-crash-{case_seed:x}.bin"));
+                let _ = std::fs::write(&path, &input);
+                panic!("a reader panicked on input {} (case seed {case_seed:#x})", path.display());
+            }
+            tried += 1;
+        }
+        case += 1;
+    }
+    eprintln!("fuzzed the readers with {tried} inputs from {} seeds in {secs} s budget", seeds.len());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    #[test]
+    fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..512)) {
+        read_everything(&bytes);
+    }
+
+    #[test]
+    fn a_valid_header_over_arbitrary_bodies_never_panics(
+        enc in prop_oneof![Just("ascii"), Just("binary_little_endian"), Just("binary_big_endian")],
+        body in prop::collection::vec(any::<u8>(), 0..512),
+    ) {
+        let mut bytes = format!(
+            "ply\nformat {enc} 1.0\nelement vertex 3\nproperty float x\nproperty double y\nproperty short z\n\
+element face 2\nproperty list uchar int vertex_indices\nelement tristrips 1\nproperty list ushort int vertex_indices\nend_header\n"
+        ).into_bytes();
+        bytes.extend(body);
+        read_everything(&bytes);
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(500))]
+
+    /// Written constraint lines read back as they were.
+    #[test]
+    fn constraint_files_round_trip(
+        paths in prop::collection::vec(prop::collection::vec(0usize..100_000, 2..12), 0..8),
+        sketches in prop::collection::vec(prop::collection::vec(-1e3f64..1e3, 2..6), 0..4),
+    ) {
+        use rig::remesh_inputs::{ConstraintLine, parse_constraints};
+        let mut text = String::from("# generated\n");
+        let mut expect = Vec::new();
+        for p in &paths {
+            text += &p.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(" ");
+            text += "\n\n";
+            expect.push(ConstraintLine::Vertices(p.clone()));
+        }
+        for s in &sketches {
+            let points: Vec<Point3> = s.iter().map(|&x| Point3::new(x, -x, 0.5 * x)).collect();
+            text += "p";
+            for q in &points {
+                text += &format!(" {} {} {}", q.x, q.y, q.z);
+            }
+            text += " # sketch\n";
+            expect.push(ConstraintLine::Points(points));
+        }
+        prop_assert_eq!(parse_constraints(text.as_bytes()).unwrap(), expect);
+    }
+}

@@ -1,0 +1,183 @@
+//! `scanrig calibrate camera|projector|laser|turntable|all`: a rig from chessboard captures, merged
+//! into a rig file, with a JSON report beside it; `scanrig calibrate import` takes a camera from
+//! OpenCV YAML instead. The calibration itself is `calib::calibrate_rig`; this only turns the
+//! arguments into its parameters, shows progress and writes the files.
+
+use crate::cli::{CalibrateArgs, CalibrateTarget};
+use crate::progress::Progress;
+use anyhow::{Context, Result};
+use calib::workflow::{Orientation, Step, Target, camera_only};
+use calib::{BoardSpec, CameraOptions, RigCalibParams};
+use rig::Rig;
+use serde_json::{Value, json};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+pub fn run(args: &CalibrateArgs) -> Result<()> {
+    let source = args.captures.clone().or_else(|| args.images.clone()).expect("clap requires one of them");
+    if args.target == CalibrateTarget::Import {
+        return import(args, &source);
+    }
+    let params = RigCalibParams {
+        target: match args.target {
+            CalibrateTarget::Camera => Target::Only(Step::Camera),
+            CalibrateTarget::Projector => Target::Only(Step::Projector),
+            CalibrateTarget::Laser => Target::Only(Step::Laser),
+            CalibrateTarget::Turntable => Target::Only(Step::Turntable),
+            CalibrateTarget::All | CalibrateTarget::Import => Target::All,
+        },
+        board: BoardSpec { cols: args.board.0 as usize, rows: args.board.1 as usize, square_mm: args.square },
+        orientation: Orientation { transpose: args.transpose, flip: args.flip },
+        lens: CameraOptions {
+            fix_aspect_ratio: args.fix_aspect_ratio,
+            fix_principal_point: args.fix_principal_point,
+            zero_tangential: args.zero_tangential,
+            fix_k3: args.fix_k3,
+        },
+        corner_height_mm: args.corner_height,
+        projector_size: args.projector,
+    };
+    let mut progress = Progress::new();
+    let positions = calib::workflow::load(&source, params.orientation, |done, total| {
+        progress.update("reading images", done, total)
+    })?;
+    let base = [args.rig.clone().unwrap_or_default(), args.out.clone(), source.join("rig.toml")]
+        .into_iter()
+        .find(|p| p.is_file());
+    let base = base.as_deref().map(Rig::read).transpose()?;
+    let (rig, mut report) = calib::calibrate_rig(&positions, base.as_ref(), &params, |what, done, total| {
+        progress.update(what, done, total)
+    })?;
+    progress.finish();
+    rig.write(&args.out)?;
+    if let Some(yaml) = &args.yaml {
+        rig::opencv_yaml::write_camera(yaml, &rig.camera)?;
+    }
+    report.insert("rig".into(), json!(args.out));
+    let report = Value::Object(report);
+    let report_path = report_path(&args.out);
+    rig::error::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    print(args, &report, &report_path)
+}
+
+/// `rig.toml` → `rig.report.json`.
+fn report_path(out: &Path) -> PathBuf {
+    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "rig".into());
+    out.with_file_name(format!("{stem}.report.json"))
+}
+/// `scanrig calibrate import camera.yml -o rig.toml`: an OpenCV YAML camera into a rig file.
+fn import(args: &CalibrateArgs, source: &Path) -> Result<()> {
+    let camera = rig::opencv_yaml::read_camera(source)?;
+    let mut rig = match [args.rig.clone().unwrap_or_default(), args.out.clone()].into_iter().find(|p| p.is_file()) {
+        Some(p) => Rig::read(&p)?,
+        None => camera_only("imported camera", camera),
+    };
+    rig.camera = camera;
+    rig.write(&args.out).with_context(|| format!("writing {}", args.out.display()))?;
+    println!(
+        "{}: camera {}x{} from {} (fx {:.3}, fy {:.3}, cx {:.3}, cy {:.3})",
+        args.out.display(),
+        camera.width,
+        camera.height,
+        source.display(),
+        camera.fx,
+        camera.fy,
+        camera.cx,
+        camera.cy
+    );
+    Ok(())
+}
+
+/// `v`'s numbers with `digits` decimals, space- or comma-joined by the caller.
+fn list(v: &Value, digits: usize) -> Vec<String> {
+    v.as_array().into_iter().flatten().map(|x| format!("{:.*}", digits, x.as_f64().unwrap_or(f64::NAN))).collect()
+}
+
+/// "  NAME WxH: fx …  fy …  cx …  cy … px" of a lens report.
+fn lens_line(o: &mut impl Write, name: &str, v: &Value) -> Result<()> {
+    let f = |k: &str| v[k].as_f64().unwrap_or(f64::NAN);
+    writeln!(
+        o,
+        "  {name} {}x{}: fx {:.3}  fy {:.3}  cx {:.3}  cy {:.3} px",
+        v["width"],
+        v["height"],
+        f("fx"),
+        f("fy"),
+        f("cx"),
+        f("cy")
+    )?;
+    Ok(())
+}
+
+fn print(args: &CalibrateArgs, r: &Value, report_path: &Path) -> Result<()> {
+    let mut o = std::io::stdout().lock();
+    if args.json {
+        serde_json::to_writer_pretty(&mut o, r)?;
+        writeln!(o)?;
+        return Ok(());
+    }
+    let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+    writeln!(
+        o,
+        "{}: board found in {} of {} images",
+        args.out.display(),
+        r["board_found"]["found"],
+        r["board_found"]["of"]
+    )?;
+    if let Some(c) = r.get("camera") {
+        lens_line(&mut o, "camera", c)?;
+        let d: Vec<String> = list(&c["distortion"], 5);
+        writeln!(o, "    distortion (k1 k2 p1 p2 k3) {}", d.join(" "))?;
+        writeln!(o, "    RMS reprojection error {:.3} px", f(&c["rms_px"]))?;
+        for v in c["outlier_views"].as_array().into_iter().flatten() {
+            writeln!(o, "    outlier view: {}", v.as_str().unwrap_or("?"))?;
+        }
+    }
+    if let Some(t) = r.get("turntable") {
+        let p: Vec<String> = list(&t["point_mm"], 3);
+        let d: Vec<String> = list(&t["direction"], 5);
+        let fit = t
+            .get("rms_px")
+            .map_or(format!("circles RMS {:.3} mm", f(&t["circle_rms_mm"])), |v| format!("RMS {:.3} px", f(v)));
+        writeln!(
+            o,
+            "  turntable: platter centre ({}) mm, axis ({}); {} views, {fit}",
+            p.join(", "),
+            d.join(", "),
+            t["views"]
+        )?;
+    }
+    for l in r.get("lasers").and_then(Value::as_array).into_iter().flatten() {
+        let n: Vec<String> = list(&l["normal"], 5);
+        writeln!(
+            o,
+            "  laser {}: normal ({}), distance {:.3} mm; {} points from {} views, spread RMS {:.3} mm",
+            l["laser"],
+            n.join(", "),
+            f(&l["distance_mm"]),
+            l["inliers"],
+            l["views"],
+            f(&l["spread_rms_mm"])
+        )?;
+    }
+    if let Some(p) = r.get("projector") {
+        lens_line(&mut o, "projector", p)?;
+        let t: Vec<String> = list(&p["translation_mm"], 3);
+        writeln!(o, "    camera → projector translation ({}) mm", t.join(", "))?;
+        writeln!(
+            o,
+            "    RMS: projector alone {:.3} px; stereo {:.3} px (camera {:.3}, projector {:.3}); {} corners, {} skipped",
+            f(&p["projector_rms_px"]),
+            f(&p["stereo_rms_px"]),
+            f(&p["stereo_camera_rms_px"]),
+            f(&p["stereo_projector_rms_px"]),
+            p["corners_used"],
+            p["corners_skipped"]
+        )?;
+    }
+    for m in r["not_found"].as_array().into_iter().flatten() {
+        writeln!(o, "  no board in {}: {}", m["image"].as_str().unwrap_or("?"), m["why"].as_str().unwrap_or("?"))?;
+    }
+    writeln!(o, "  report: {}", report_path.display())?;
+    Ok(())
+}

@@ -1,0 +1,50 @@
+//! What the single-stage subcommands share about their outputs: refusing output paths that would
+//! overwrite each other or the input, writing with the input's units, and the `--json` envelope.
+
+use anyhow::{Result, bail};
+use std::path::Path;
+
+/// Fails when two of the named output paths are the same file (a result would be lost).
+pub fn distinct(outputs: &[(&str, Option<&Path>)]) -> Result<()> {
+    let given: Vec<(&str, &Path)> = outputs.iter().filter_map(|(n, p)| p.map(|p| (*n, p))).collect();
+    for (i, (a, pa)) in given.iter().enumerate() {
+        for (b, pb) in &given[i + 1..] {
+            if same_file(pa, pb) {
+                bail!("{a} and {b} name the same file, {}: one result would overwrite the other", pa.display());
+            }
+        }
+    }
+    Ok(())
+}
+
+fn same_file(a: &Path, b: &Path) -> bool {
+    let canon = |p: &Path| {
+        let parent = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        parent.canonicalize().ok().map(|d| d.join(p.file_name().unwrap_or_default()))
+    };
+    a == b || matches!((canon(a), canon(b)), (Some(x), Some(y)) if x == y)
+}
+
+/// Write options that keep the input's units (a PLY `comment units …`).
+pub fn write_options_like(input: &Path) -> Result<rig::ply::WriteOptions> {
+    let mut opts = rig::ply::WriteOptions::default();
+    if rig::MeshFormat::of(input) == Some(rig::MeshFormat::Ply)
+        && let Some(u) = rig::ply::read_header(input)?.units()
+    {
+        opts = opts.with_units(&u);
+    }
+    Ok(opts)
+}
+
+/// A `--json` report with the schema version every scanrig JSON output carries.
+pub fn versioned(report: &impl serde::Serialize) -> serde_json::Value {
+    let mut v = serde_json::to_value(report).expect("reports serialise");
+    let version = serde_json::json!(process::pipeline::REPORT_SCHEMA_VERSION);
+    match &mut v {
+        serde_json::Value::Object(map) => {
+            map.insert("schema_version".into(), version);
+            v
+        }
+        _ => serde_json::json!({ "schema_version": version, "report": v }),
+    }
+}

@@ -1,0 +1,334 @@
+//! The stages' options, shared: each group is flattened into its single-stage subcommand and into
+//! `process`, and turned into the library's parameter type here, with the library's `Default` as the
+//! only source of defaults. So `scanrig fuse X` and `scanrig process --until fuse` run the same
+//! stage with the same settings.
+
+use anyhow::{Result, bail};
+use clap::Args;
+use process::DecodeParams;
+use process::denoise::{DenoiseParams, Direction, Similarity};
+use process::pipeline::stages::{DenoiseStage, FuseParams, ReconstructParams};
+use process::placement::CropParams;
+use process::reconstruct::adfft::AdFftParams;
+use process::reconstruct::global_fft::FftParams;
+use process::remesh::RemeshParams;
+
+/// Structured-light decoding.
+#[derive(Args, Debug, Clone)]
+pub struct DecodeOpts {
+    /// Shadow threshold: white − black below this is not decoded (OpenCV's blackThreshold is 40).
+    #[arg(long, default_value_t = DecodeParams::default().shadow_threshold)]
+    pub shadow_threshold: f64,
+    /// A pixel whose weakest Gray bit has |pattern − inverse| below this is dropped (OpenCV's
+    /// whiteThreshold is 5).
+    #[arg(long, default_value_t = DecodeParams::default().bit_threshold)]
+    pub bit_threshold: u8,
+}
+
+impl DecodeOpts {
+    pub fn params(&self) -> Result<DecodeParams> {
+        if !(self.shadow_threshold >= 0.0 && self.shadow_threshold <= 255.0) {
+            bail!("--shadow-threshold must be a grey level from 0 to 255, got {}", self.shadow_threshold);
+        }
+        Ok(DecodeParams {
+            shadow_threshold: self.shadow_threshold,
+            bit_threshold: self.bit_threshold,
+            ..Default::default()
+        })
+    }
+}
+
+fn defaults() -> DenoiseParams {
+    DenoiseParams::default()
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FilterArg {
+    /// Non-local: patch similarity (thesis ch. 4).
+    NonLocal,
+    /// Bilateral: the point pair's similarity only.
+    Bilateral,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DirectionArg {
+    /// Along least-squares normals (additive noise).
+    Normal,
+    /// Along the line of sight (view-dependent noise: structured light, lasers).
+    Sight,
+}
+
+/// Denoising (thesis ch. 4).
+#[derive(Args, Debug, Clone)]
+pub struct DenoiseOpts {
+    /// The filter.
+    #[arg(long, value_enum, default_value = "non-local")]
+    pub filter: FilterArg,
+    /// Displacement direction.
+    #[arg(long, value_enum, default_value = "normal")]
+    pub direction: DirectionArg,
+    /// Neighbourhood N size (odd: 7 means 7x7).
+    #[arg(long, default_value_t = 2 * defaults().window + 1)]
+    pub window: usize,
+    /// Similarity patch O size (odd: 5 means 5x5).
+    #[arg(long, default_value_t = default_patch())]
+    pub patch: usize,
+    /// Filter passes.
+    #[arg(long, default_value_t = defaults().iterations)]
+    pub iterations: usize,
+    /// Keep N the same size near holes and borders.
+    #[arg(long)]
+    pub no_adaptive: bool,
+    /// Bandwidths d and s of eq. 4.4 in the file's units, as D,S (default: estimated per grid, d = 0.75 μd
+    /// and s = σs, section 4.3.2).
+    #[arg(long, value_parser = parse_bandwidth)]
+    pub bandwidth: Option<(f64, f64)>,
+    /// Keep cells without a valid neighbour (they cannot be filtered, and are mostly flying pixels, so
+    /// by default they are dropped).
+    #[arg(long)]
+    pub keep_isolated: bool,
+}
+
+fn default_patch() -> usize {
+    match defaults().similarity {
+        Similarity::NonLocal { half } => 2 * half + 1,
+        Similarity::Bilateral => 5,
+    }
+}
+
+fn half(size: usize, what: &str) -> Result<usize> {
+    if size < 3 || size.is_multiple_of(2) {
+        bail!("--{what} must be an odd size of at least 3, got {size}");
+    }
+    Ok(size / 2)
+}
+
+impl DenoiseOpts {
+    pub fn params(&self) -> Result<DenoiseStage> {
+        if self.iterations == 0 {
+            bail!("--iterations must be at least 1");
+        }
+        let d = DenoiseStage::default();
+        Ok(DenoiseStage {
+            filter: DenoiseParams {
+                window: half(self.window, "window")?,
+                similarity: match self.filter {
+                    FilterArg::NonLocal => Similarity::NonLocal { half: half(self.patch, "patch")? },
+                    FilterArg::Bilateral => Similarity::Bilateral,
+                },
+                direction: match self.direction {
+                    DirectionArg::Sight => Direction::LineOfSight,
+                    DirectionArg::Normal => Direction::Normal,
+                },
+                iterations: self.iterations,
+                adaptive: !self.no_adaptive,
+                bandwidth: self.bandwidth,
+                drop_isolated: !self.keep_isolated,
+                ..d.filter
+            },
+            ..d
+        })
+    }
+}
+
+/// `D,S`: two positive numbers.
+pub fn parse_bandwidth(text: &str) -> Result<(f64, f64), String> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let [d, s] = parts[..] else { return Err(format!("expected D,S (two numbers), got {text:?}")) };
+    let num = |x: &str| match x.parse::<f64>() {
+        Ok(v) if v > 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("{x:?} is not a positive number")),
+    };
+    Ok((num(d)?, num(s)?))
+}
+
+/// Mean-shift fusion (thesis ch. 3).
+#[derive(Args, Debug, Clone)]
+pub struct FuseOpts {
+    /// Neighbours per kernel (the adaptive kernel size).
+    #[arg(long, default_value_t = FuseParams::default().mean_shift.k)]
+    pub k: usize,
+}
+
+impl FuseOpts {
+    pub fn params(&self) -> Result<FuseParams> {
+        if self.k < 6 {
+            bail!("--k must be at least 6 (a kernel fits a plane to its neighbours), got {}", self.k);
+        }
+        let d = FuseParams::default();
+        Ok(FuseParams { mean_shift: process::mean_shift::MeanShiftParams { k: self.k, ..d.mean_shift }, ..d })
+    }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MethodArg {
+    /// The global FFT method (Kazhdan 2005): one N³ grid.
+    Fft,
+    /// Adaptive FFT with partition of unity (thesis 5.3): local solutions, memory along one plane.
+    Adfft,
+}
+
+/// Reconstruction (thesis ch. 5).
+#[derive(Args, Debug, Clone)]
+pub struct ReconstructOpts {
+    /// Reconstruction method.
+    #[arg(long, value_enum, default_value = "fft")]
+    pub method: MethodArg,
+    /// Grid of 2^depth points per axis (AdFFT: the equivalent global grid); default 8 for fft, 9 for
+    /// adfft.
+    #[arg(long)]
+    pub depth: Option<u32>,
+    /// AdFFT: split octree cells whose samples lie farther than this from their local surface on
+    /// average (cloud units; default half a grid cell).
+    #[arg(long)]
+    pub error: Option<f64>,
+    /// The global method: refuse grids needing more memory than this, GB.
+    #[arg(long, default_value_t = FftParams::default().memory_budget as f64 / 1e9)]
+    pub memory_budget: f64,
+}
+
+impl ReconstructOpts {
+    pub fn params(&self) -> Result<ReconstructParams> {
+        Ok(match self.method {
+            MethodArg::Fft => {
+                if self.error.is_some() {
+                    bail!("--error steers AdFFT's octree; the global method (--method fft) has none");
+                }
+                if !(self.memory_budget > 0.0 && self.memory_budget.is_finite()) {
+                    bail!("--memory-budget must be a positive number of GB, got {}", self.memory_budget);
+                }
+                let d = FftParams::default();
+                ReconstructParams::Fft(FftParams {
+                    depth: self.depth.unwrap_or(d.depth),
+                    memory_budget: (self.memory_budget * 1e9) as u64,
+                    ..d
+                })
+            }
+            MethodArg::Adfft => {
+                if let Some(e) = self.error
+                    && !(e > 0.0 && e.is_finite())
+                {
+                    bail!("--error must be a positive distance, got {e}");
+                }
+                let d = AdFftParams::default();
+                ReconstructParams::Adfft(AdFftParams { depth: self.depth.unwrap_or(d.depth), error: self.error, ..d })
+            }
+        })
+    }
+}
+
+/// Quad remeshing (thesis ch. 6).
+#[derive(Args, Debug, Clone)]
+pub struct RemeshOpts {
+    /// Distance between neighbouring streamlines: the quad size (default 1 % of the bounding-box
+    /// diagonal).
+    #[arg(long)]
+    pub spacing: Option<f64>,
+    /// Creases folding by more than this many degrees become feature lines the quads follow.
+    #[arg(long, default_value_t = RemeshParams::default().feature_angle.unwrap_or(30.0))]
+    pub features: f64,
+    /// Follow no creases.
+    #[arg(long)]
+    pub no_features: bool,
+    /// Weight of the line constraints against the Laplace equation.
+    #[arg(long, default_value_t = RemeshParams::default().weight)]
+    pub weight: f64,
+    /// Keep the n-gons at T-junctions instead of splitting them into quads and a triangle.
+    #[arg(long)]
+    pub keep_polygons: bool,
+}
+
+impl RemeshOpts {
+    pub fn params(&self) -> Result<RemeshParams> {
+        if let Some(s) = self.spacing
+            && !(s > 0.0 && s.is_finite())
+        {
+            bail!("--spacing must be a positive distance, got {s}");
+        }
+        Ok(RemeshParams {
+            spacing: self.spacing,
+            feature_angle: (!self.no_features).then_some(self.features),
+            weight: self.weight,
+            split_polygons: !self.keep_polygons,
+            ..Default::default()
+        })
+    }
+}
+
+/// The object cylinder views are cropped to before merging and registration.
+#[derive(Args, Debug, Clone)]
+pub struct CropOpts {
+    /// Keep points within this radius of the turntable axis, mm (default: the rig's platter radius).
+    #[arg(long)]
+    pub crop_radius: Option<f64>,
+    /// Keep points at least this high above the platter, mm.
+    #[arg(long, default_value_t = CropParams::default().min_height_mm, allow_hyphen_values = true)]
+    pub crop_min_height: f64,
+}
+
+impl CropOpts {
+    pub fn params(&self) -> Result<CropParams> {
+        if let Some(r) = self.crop_radius
+            && !(r > 0.0 && r.is_finite())
+        {
+            bail!("--crop-radius must be a positive distance in mm, got {r}");
+        }
+        if !self.crop_min_height.is_finite() {
+            bail!("--crop-min-height must be a finite height in mm, got {}", self.crop_min_height);
+        }
+        Ok(CropParams { radius_mm: self.crop_radius, min_height_mm: self.crop_min_height, ..Default::default() })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct All {
+        #[command(flatten)]
+        decode: DecodeOpts,
+        #[command(flatten)]
+        denoise: DenoiseOpts,
+        #[command(flatten)]
+        fuse: FuseOpts,
+        #[command(flatten)]
+        reconstruct: ReconstructOpts,
+        #[command(flatten)]
+        remesh: RemeshOpts,
+        #[command(flatten)]
+        crop: CropOpts,
+    }
+
+    #[test]
+    fn no_options_give_the_library_defaults() {
+        let a = All::parse_from(["x"]);
+        assert_eq!(a.decode.params().unwrap(), DecodeParams::default());
+        assert_eq!(a.denoise.params().unwrap(), DenoiseStage::default());
+        assert_eq!(a.fuse.params().unwrap(), FuseParams::default());
+        assert_eq!(a.reconstruct.params().unwrap(), ReconstructParams::default());
+        assert_eq!(a.remesh.params().unwrap(), RemeshParams::default());
+        assert_eq!(a.crop.params().unwrap(), CropParams::default());
+        let a = All::parse_from(["x", "--method", "adfft"]);
+        assert_eq!(a.reconstruct.params().unwrap(), ReconstructParams::Adfft(AdFftParams::default()));
+    }
+
+    #[test]
+    fn bandwidths_parse_or_say_what_is_wrong() {
+        assert_eq!(parse_bandwidth("0.5, 0.1"), Ok((0.5, 0.1)));
+        for bad in ["", "1", "1,2,3", "a,1", "0,1", "1,-2", "inf,1", "NaN,1"] {
+            assert!(parse_bandwidth(bad).is_err(), "{bad:?}");
+        }
+        // Any text: a pair of positive finite numbers or an error, never a panic.
+        let mut rng = fixtures::Lcg::new(7);
+        for _ in 0..20_000 {
+            let len = rng.next_u64() % 12;
+            let text: String =
+                (0..len).map(|_| b"0123456789.,-e +x"[(rng.next_u64() >> 33) as usize % 17] as char).collect();
+            if let Ok((d, b)) = parse_bandwidth(&text) {
+                assert!(d > 0.0 && b > 0.0 && d.is_finite() && b.is_finite(), "{text:?}");
+            }
+        }
+    }
+}

@@ -1,0 +1,9 @@
+//! The integration tests of the `scanrig` command line, in one test binary (one link of the workspace
+//! instead of one per file): each module is one former test file.
+
+mod bad_input;
+mod cli;
+mod data_files;
+#[cfg(feature = "projector-window")]
+mod projector_window;
+mod stages;
