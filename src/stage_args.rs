@@ -96,17 +96,24 @@ fn default_patch() -> usize {
     }
 }
 
+/// The largest neighbourhood or patch side accepted: the filter's work grows with its square, and past
+/// this a range grid's surface is no longer locally flat at any scanner's resolution.
+const MAX_WINDOW: usize = 31;
+
 fn half(size: usize, what: &str) -> Result<usize> {
     if size < 3 || size.is_multiple_of(2) {
         bail!("--{what} must be an odd size of at least 3, got {size}");
+    }
+    if size > MAX_WINDOW {
+        bail!("--{what} {size} is larger than the largest useful size, {MAX_WINDOW}");
     }
     Ok(size / 2)
 }
 
 impl DenoiseOpts {
     pub fn params(&self) -> Result<DenoiseStage> {
-        if self.iterations == 0 {
-            bail!("--iterations must be at least 1");
+        if !(1..=100).contains(&self.iterations) {
+            bail!("--iterations must be from 1 to 100, got {}", self.iterations);
         }
         let d = DenoiseStage::default();
         Ok(DenoiseStage {
@@ -259,7 +266,7 @@ impl RemeshOpts {
 #[derive(Args, Debug, Clone)]
 pub struct CropOpts {
     /// Keep points within this radius of the turntable axis, mm (default: the rig's platter radius).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub crop_radius: Option<f64>,
     /// Keep points at least this high above the platter, mm.
     #[arg(long, default_value_t = CropParams::default().min_height_mm, allow_hyphen_values = true)]

@@ -9,7 +9,9 @@
 //! finish before replying, so `ok` after `G1 X…` means the platter is there.
 
 use crate::line::{LineReader, Link, ReadLineError};
-use crate::turntable::{Turntable, TurntableError};
+use crate::turntable::{
+    ACCELERATION_RANGE_DEG_PER_S2, MAX_ANGLE_DEG, SPEED_RANGE_DEG_PER_S, Turntable, TurntableError, in_range,
+};
 use std::time::Duration;
 
 /// Soft reset (Ctrl-X): the firmware restarts and greets again.
@@ -255,6 +257,7 @@ impl<L: Link> HorusTurntable<L> {
 
 impl<L: Link> Turntable for HorusTurntable<L> {
     fn move_to(&mut self, angle_deg: f64) -> Result<(), TurntableError> {
+        in_range("the angle (degrees)", angle_deg, (-MAX_ANGLE_DEG, MAX_ANGLE_DEG))?;
         // The reply comes when the move is done: allow its duration, with margin, on top.
         // Cruise plus ramps (speed / acceleration covers both ramps' extra time), with margin.
         let speed = self.feed.unwrap_or(1.0).max(1e-3);
@@ -288,6 +291,7 @@ impl<L: Link> Turntable for HorusTurntable<L> {
     }
 
     fn set_speed(&mut self, deg_per_s: f64) -> Result<(), TurntableError> {
+        in_range("the speed (degrees per second)", deg_per_s, SPEED_RANGE_DEG_PER_S)?;
         if self.feed != Some(deg_per_s) {
             self.send(Command::Feed(deg_per_s), self.opts.reply_timeout)?;
             self.feed = Some(deg_per_s);
@@ -296,6 +300,7 @@ impl<L: Link> Turntable for HorusTurntable<L> {
     }
 
     fn set_acceleration(&mut self, deg_per_s2: f64) -> Result<(), TurntableError> {
+        in_range("the acceleration (degrees per second²)", deg_per_s2, ACCELERATION_RANGE_DEG_PER_S2)?;
         if self.acceleration != Some(deg_per_s2) {
             self.send(Command::Acceleration(deg_per_s2), self.opts.reply_timeout)?;
             self.acceleration = Some(deg_per_s2);

@@ -158,6 +158,23 @@ pub fn run(
                 out.display()
             )));
         }
+        // The frames already on disk were taken with the folder's rig: a resumed session with another
+        // camera (another resolution, say) would mix two cameras in one scan.
+        let recorded = Rig::read(&out.join(&old.rig))?;
+        if recorded.camera != rig.camera {
+            let (a, b) = (&recorded.camera, &rig.camera);
+            return Err(SessionError::Folder(format!(
+                "{} was captured with a {}x{} camera (fx {}), this session's is {}x{} (fx {}): resume with the same \
+                 camera and --resolution",
+                out.display(),
+                a.width,
+                a.height,
+                a.fx,
+                b.width,
+                b.height,
+                b.fx
+            )));
+        }
         old
     } else {
         rig.write(&out.join("rig.toml"))?;

@@ -20,9 +20,30 @@ pub trait Turntable {
     fn set_acceleration(&mut self, deg_per_s2: f64) -> Result<(), TurntableError>;
 }
 
+/// The largest absolute angle a move may ask for, degrees (a hundred turns from the zero mark).
+pub const MAX_ANGLE_DEG: f64 = 36_000.0;
+/// The speed range a move may ask for, degrees per second: below this a move of a few degrees takes
+/// minutes, above it a stepper misses steps.
+pub const SPEED_RANGE_DEG_PER_S: (f64, f64) = (0.1, 1_000.0);
+/// The acceleration range, degrees per second squared.
+pub const ACCELERATION_RANGE_DEG_PER_S2: (f64, f64) = (1.0, 100_000.0);
+
 /// Why a turntable command failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum TurntableError {
+    /// A value no board should be sent (NaN, infinite, or far out of range): refused before sending,
+    /// so the board is never left working on it.
+    #[error("{what} {value} is out of range: it must be a number from {min} to {max}")]
+    OutOfRange {
+        /// The setting.
+        what: &'static str,
+        /// The value given.
+        value: f64,
+        /// The smallest accepted.
+        min: f64,
+        /// The largest accepted.
+        max: f64,
+    },
     /// The port could not be opened or used.
     #[error("{port}: {message}")]
     Port {
@@ -79,4 +100,9 @@ pub enum TurntableError {
         /// The highest index the dialect knows.
         max: usize,
     },
+}
+
+/// `value` when it lies in `[min, max]` (NaN never does), else [`TurntableError::OutOfRange`].
+pub fn in_range(what: &'static str, value: f64, (min, max): (f64, f64)) -> Result<f64, TurntableError> {
+    if value >= min && value <= max { Ok(value) } else { Err(TurntableError::OutOfRange { what, value, min, max }) }
 }

@@ -133,3 +133,23 @@ fn an_unplugged_board_is_named_as_such() {
     assert!(matches!(e, TurntableError::Unplugged { .. }), "{e}");
     assert!(e.to_string().contains("unplugged"), "{e}");
 }
+
+/// Issue 19, defect 6: NaN, infinite and absurd angles and speeds are refused before anything is
+/// sent, so the board is never left turning toward 1e30° and answers the next command at once.
+#[test]
+fn values_no_board_should_be_sent_are_refused_before_sending() {
+    let board = VirtualBoard::start(Faults::default()).unwrap();
+    let sent = Arc::new(Mutex::new(Vec::new()));
+    let link = Recorder { inner: open(&board), sent: sent.clone() };
+    let mut t = HorusTurntable::connect(link, &board.port, options()).unwrap();
+    let before = sent.lock().unwrap().len();
+    for angle in [f64::NAN, f64::INFINITY, -f64::INFINITY, 1e30, -36_001.0] {
+        assert!(matches!(t.move_to(angle), Err(TurntableError::OutOfRange { .. })), "{angle}");
+    }
+    for speed in [0.0, -5.0, 1e-9, f64::NAN, f64::INFINITY, 1e6] {
+        let e = t.set_speed(speed).unwrap_err();
+        assert!(e.to_string().starts_with("the speed (degrees per second)"), "{speed}: {e}");
+    }
+    assert_eq!(sent.lock().unwrap().len(), before, "nothing was sent");
+    t.move_to(10.0).unwrap();
+}

@@ -45,7 +45,7 @@ pub struct DecodeReport {
 }
 
 /// A frame set that cannot be decoded.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum DecodeError {
     /// A frame the decoder needs is not in the set.
@@ -68,6 +68,35 @@ pub enum DecodeError {
     /// The Gray-code frames of an axis are incomplete.
     #[error("the {0} Gray code is incomplete (a bit without its inverse, or a bit missing)")]
     IncompleteGray(&'static str),
+    /// The Gray code's bit count does not fit the projector's size: the rig's projector is not the
+    /// one the frames were made for, and most indices would be thrown away.
+    #[error(
+        "the {axis} Gray code has {bits} bits, but the projector's {size} {axis}s need {expected}: the rig's \
+         projector size does not match the captures"
+    )]
+    BitsForProjector {
+        /// The axis.
+        axis: &'static str,
+        /// Bits in the frames.
+        bits: u32,
+        /// The projector's size along the axis.
+        size: u32,
+        /// Bits that size needs.
+        expected: u32,
+    },
+    /// Phase-shift frames whose period or step count cannot be right.
+    #[error(
+        "the {axis} phase-shift frames have period {period_px} px and {steps} steps: the period must be a \
+             positive number of projector pixels and the steps at least 3"
+    )]
+    BadPhase {
+        /// The axis.
+        axis: &'static str,
+        /// The period.
+        period_px: f64,
+        /// The steps.
+        steps: u32,
+    },
 }
 
 /// The frames of one coded axis.
@@ -98,6 +127,10 @@ fn collect_axis<'a>(
     }
     bits.sort_by_key(|b| (b.0, b.2));
     let nbits = bits[0].1;
+    let expected = rig::patterns::bits_for(size);
+    if nbits != expected {
+        return Err(DecodeError::BitsForProjector { axis: axis_name(axis), bits: nbits, size, expected });
+    }
     if bits.len() != 2 * nbits as usize
         || bits.iter().enumerate().any(|(k, b)| b.0 != k as u32 / 2 || b.2 != (k % 2 == 1))
     {
@@ -112,6 +145,11 @@ fn collect_axis<'a>(
             _ => None,
         })
         .collect();
+    if let Some(&(period_px, _, steps, _)) =
+        phase.iter().find(|f| !(f.0.is_finite() && f.0 > 0.0 && f.2 >= 3 && f.1 < f.2))
+    {
+        return Err(DecodeError::BadPhase { axis: axis_name(axis), period_px, steps });
+    }
     let phase = phase.first().map(|&(period, _, steps, _)| (period, steps)).and_then(|(period, steps)| {
         phase.retain(|f| f.0 == period && f.2 == steps);
         phase.sort_by_key(|f| f.1);
@@ -255,6 +293,35 @@ pub fn decode_view(
 mod tests {
     use super::*;
     use crate::phase_shift::PhaseSteps;
+
+    /// Issue 19, defect 4: frames made for another projector, or phase frames whose period cannot be
+    /// right, are refused instead of decoding to (mostly) nothing.
+    #[test]
+    fn frames_that_do_not_fit_the_projector_are_refused() {
+        let img = Image8::gray(4, 3, vec![100; 12]);
+        let phases = [rig::PhaseShift { axis: Axis::Columns, period_px: 8.0, steps: 4 }];
+        let seq = rig::patterns::structured_light_sequence(1024, 768, &phases);
+        let frames: Vec<(Pattern, &Image8)> = seq.iter().map(|p| (*p, &img)).collect();
+        let e = decode_view(&frames, 512, 384, &DecodeParams::default()).unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "the column Gray code has 10 bits, but the projector's 512 columns need 9: the rig's projector size \
+             does not match the captures"
+        );
+        for period in [0.0, -16.0, f64::NAN] {
+            let bad: Vec<(Pattern, &Image8)> = frames
+                .iter()
+                .map(|&(p, i)| match p {
+                    Pattern::Phase { axis, step, steps, .. } => {
+                        (Pattern::Phase { axis, period_px: period, step, steps }, i)
+                    }
+                    p => (p, i),
+                })
+                .collect();
+            let e = decode_view(&bad, 1024, 768, &DecodeParams::default()).unwrap_err();
+            assert!(matches!(e, DecodeError::BadPhase { .. }), "{period}: {e}");
+        }
+    }
 
     /// The block decoder against the per-pixel reference primitives on random frames: the fast path
     /// must not change a single decision.

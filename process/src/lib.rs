@@ -125,6 +125,29 @@ pub enum Error {
         /// The frame's pattern name.
         frame: &'static str,
     },
+    /// A scan without a complete view.
+    #[error(
+        "{}: none of its {views} views is complete (an interrupted capture? `scanrig scan --resume` finishes it)",
+        scan.display()
+    )]
+    NoCompleteViews {
+        /// The scan folder.
+        scan: PathBuf,
+        /// Views in the manifest.
+        views: usize,
+    },
+    /// A laser frame of a laser the rig does not have.
+    #[error("view {view} has a frame of laser {index}, but {} has {lasers} laser(s)", rig.display())]
+    UnknownLaser {
+        /// The view.
+        view: usize,
+        /// The laser index in the frame.
+        index: usize,
+        /// Lasers in the rig.
+        lasers: usize,
+        /// The rig file.
+        rig: PathBuf,
+    },
     /// Calibration captures given to `process`.
     #[error("{}: a board capture is for `scanrig calibrate`, not `scanrig process`", scan.display())]
     BoardCapture {

@@ -8,6 +8,8 @@
 
 use crate::math::{Point2, Point3, Real, UnitVector3, Vector3};
 
+/// The largest image side a camera or projector may have, pixels.
+pub const MAX_SIDE_PX: u32 = 32_768;
 /// Lens distortion coefficients in OpenCV order (k1, k2, p1, p2, k3): radial k1, k2, k3, tangential p1, p2.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Distortion {
@@ -187,6 +189,13 @@ impl PinholeCamera {
     pub fn validate(&self) -> Result<(), String> {
         if self.width == 0 || self.height == 0 {
             return Err(format!("image size {}×{} must be positive", self.width, self.height));
+        }
+        // Far beyond any camera or projector, and the bound that keeps per-pixel tables allocatable.
+        if self.width > MAX_SIDE_PX || self.height > MAX_SIDE_PX {
+            return Err(format!(
+                "image size {}×{} is larger than any camera or projector (at most {MAX_SIDE_PX} pixels a side)",
+                self.width, self.height
+            ));
         }
         if !(self.fx > 0.0 && self.fy > 0.0 && self.fx.is_finite() && self.fy.is_finite()) {
             return Err(format!("focal lengths ({}, {}) must be positive and finite", self.fx, self.fy));

@@ -94,8 +94,9 @@ struct LensToml {
     fy_px: f64,
     cx_px: f64,
     cy_px: f64,
+    /// k1 k2 p1 p2 k3 (OpenCV order); read as a list so that more terms are refused, not cut.
     #[serde(default)]
-    distortion: [f64; 5],
+    distortion: Vec<f64>,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -134,6 +135,21 @@ fn invalid(field: &str, msg: impl Into<String>) -> ParseError {
 }
 
 fn lens_from(t: &LensToml, field: &str) -> Result<PinholeCamera, ParseError> {
+    let d = &t.distortion;
+    let distortion: [f64; 5] = match d.len() {
+        0 => [0.0; 5],
+        4 => [d[0], d[1], d[2], d[3], 0.0],
+        5 => [d[0], d[1], d[2], d[3], d[4]],
+        n => {
+            return Err(invalid(
+                &format!("{field}.distortion"),
+                format!(
+                    "has {n} terms; the camera model takes k1, k2, p1, p2 and optionally k3 (4 or 5): higher-order \
+                     terms (k4, k5, k6, s1…) are not supported and would be lost"
+                ),
+            ));
+        }
+    };
     let cam = PinholeCamera {
         width: t.width_px,
         height: t.height_px,
@@ -141,7 +157,7 @@ fn lens_from(t: &LensToml, field: &str) -> Result<PinholeCamera, ParseError> {
         fy: t.fy_px,
         cx: t.cx_px,
         cy: t.cy_px,
-        distortion: Distortion::from_opencv(t.distortion),
+        distortion: Distortion::from_opencv(distortion),
     };
     cam.validate().map_err(|m| invalid(field, m))?;
     Ok(cam)
@@ -155,7 +171,7 @@ fn lens_to(c: &PinholeCamera) -> LensToml {
         fy_px: c.fy,
         cx_px: c.cx,
         cy_px: c.cy,
-        distortion: c.distortion.to_opencv(),
+        distortion: c.distortion.to_opencv().to_vec(),
     }
 }
 

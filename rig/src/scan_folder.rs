@@ -128,6 +128,14 @@ impl Manifest {
             let msg = format!("scan format {} is not supported (this scanrig reads {SCAN_FORMAT})", m.format);
             return Err(ParseError::new(Location::Field("format".into()), Problem::Invalid(msg)));
         }
+        let relative = |p: &str| {
+            let p = Path::new(p);
+            !p.is_absolute() && !p.components().any(|c| matches!(c, std::path::Component::ParentDir))
+        };
+        if !relative(&m.rig) {
+            let msg = format!("rig file `{}` must be a relative path inside the scan folder", m.rig);
+            return Err(ParseError::new(Location::Field("rig".into()), Problem::Invalid(msg)));
+        }
         for (i, v) in m.views.iter().enumerate() {
             for f in &v.frames {
                 let p = Path::new(&f.file);
@@ -160,5 +168,21 @@ impl Manifest {
     /// The absolute path of a frame.
     pub fn frame_path(dir: &Path, frame: &Frame) -> PathBuf {
         dir.join(&frame.file)
+    }
+
+    /// `dir.join(relative)` after checking that it stays inside the scan folder `dir` once symbolic
+    /// links are followed (a `frames/` linked elsewhere, a frame linked to a file outside): nothing a
+    /// scan folder names may lead a reader out of it. A path that does not exist is returned as it is
+    /// (reading it then says it is missing). `field` names the manifest field for the error.
+    pub fn inside(dir: &Path, relative: &str, field: &str) -> Result<PathBuf, Error> {
+        let path = dir.join(relative);
+        let (Ok(root), Ok(real)) = (dir.canonicalize(), path.canonicalize()) else { return Ok(path) };
+        if real.starts_with(&root) {
+            Ok(path)
+        } else {
+            let msg = format!("`{relative}` leads outside the scan folder (a symbolic link?), to {}", real.display());
+            Err(ParseError::new(Location::Field(field.into()), Problem::Invalid(msg))
+                .with_path(&dir.join(MANIFEST_NAME)))
+        }
     }
 }

@@ -29,17 +29,39 @@ fn a_rig_of_another_camera_size_is_named_not_a_panic() {
     let o = scanrig(&[&"sim", &"--views", &"1", &"--resolution", &"320x256", &"--no-truth", &"--out", &scan]);
     assert!(o.status.success(), "{}", stderr(&o));
     let rig_path = scan.join("rig.toml");
-    for (w, h) in [(640u32, 512u32), (4_294_967_295, 4_294_967_295)] {
-        let mut rig = rig::Rig::read(&rig_path).unwrap();
-        rig.camera.width = w;
-        rig.camera.height = h;
-        rig.write(&rig_path).unwrap();
-        let o = scanrig(&[&"process", &scan, &"--until", &"triangulate"]);
-        assert!(!o.status.success());
-        no_panic(&o);
-        let want = format!("the frames are 320×256 pixels but the rig's camera is {w}×{h}");
-        assert!(stderr(&o).contains(&want), "{}", stderr(&o));
-    }
+    let mut rig = rig::Rig::read(&rig_path).unwrap();
+    rig.camera.width = 640;
+    rig.camera.height = 512;
+    rig.write(&rig_path).unwrap();
+    let o = scanrig(&[&"process", &scan, &"--until", &"triangulate"]);
+    assert!(!o.status.success());
+    no_panic(&o);
+    let want = "view 0: triangulate: the frames are 320×256 pixels but the rig's camera is 640×512";
+    assert!(stderr(&o).contains(want), "{}", stderr(&o));
+    // An absurd size is refused when the rig is read, naming the file and the field.
+    let text = std::fs::read_to_string(&rig_path).unwrap().replace("width_px = 640", "width_px = 4294967295");
+    std::fs::write(&rig_path, text).unwrap();
+    let o = scanrig(&[&"process", &scan, &"--until", &"triangulate"]);
+    assert!(!o.status.success());
+    no_panic(&o);
+    let err = stderr(&o);
+    assert!(err.contains("rig.toml") && err.contains("camera") && err.contains("4294967295×512"), "{err}");
+}
+
+#[test]
+fn distortion_terms_beyond_k3_are_refused_not_cut() {
+    let text = "format = 1
+[camera]
+width_px = 640
+height_px = 480
+fx_px = 500.0
+fy_px = 500.0
+                cx_px = 319.5
+cy_px = 239.5
+distortion = [0.1, -0.2, 0.0, 0.0, 0.01, 0.7, 0.0, 0.0]
+";
+    let err = rig::Rig::from_toml_str(text).unwrap_err().to_string();
+    assert!(err.contains("camera.distortion") && err.contains("has 8 terms"), "{err}");
 }
 
 #[test]
@@ -67,4 +89,120 @@ fn a_corrupt_cached_projector_map_is_made_again() {
     assert!(why.contains("changed since it was written"), "{report}");
     let again = rig::ply::read_range_grid(&scan.join("processed/views/view_000.ply")).unwrap();
     assert_eq!(again.valid_count(), grid.valid_count());
+}
+
+#[test]
+fn a_scan_is_not_resumed_with_another_camera() {
+    let d = fixtures::temp_dir("bad-resume");
+    let out = d.join("scan");
+    let o = scanrig(&[&"scan", &"--out", &out, &"--views", &"2", &"--resolution", &"160x128", &"--settle-ms", &"0"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = scanrig(&[
+        &"scan",
+        &"--out",
+        &out,
+        &"--views",
+        &"2",
+        &"--resolution",
+        &"320x256",
+        &"--settle-ms",
+        &"0",
+        &"--resume",
+    ]);
+    assert!(!o.status.success());
+    no_panic(&o);
+    assert!(stderr(&o).contains("was captured with a 160x128 camera"), "{}", stderr(&o));
+}
+
+#[test]
+fn turntable_values_out_of_range_are_refused() {
+    for args in [["move", "NaN"], ["move", "1e30"]] {
+        let o = scanrig(&[&"turntable", &args[0], &args[1]]);
+        assert!(!o.status.success(), "{args:?}");
+        no_panic(&o);
+        assert!(stderr(&o).contains("out of range"), "{args:?}: {}", stderr(&o));
+    }
+    let o = scanrig(&[&"turntable", &"move", &"10", &"--speed", &"0"]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("the speed (degrees per second) 0 is out of range"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn scans_without_a_complete_view_and_outputs_that_collide_are_refused() {
+    let d = fixtures::temp_dir("bad-scan");
+    let scan = d.join("scan");
+    let o = scanrig(&[&"sim", &"--views", &"1", &"--resolution", &"160x128", &"--no-truth", &"--out", &scan]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut m = rig::Manifest::read(&scan).unwrap();
+    m.views.iter_mut().for_each(|v| v.complete = false);
+    m.write(&scan).unwrap();
+    let o = scanrig(&[&"process", &scan]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("none of its 1 views is complete"), "{}", stderr(&o));
+    // Two outputs naming one file lose a result: refused.
+    let cloud = d.join("c.ply");
+    let pts = (0..200).map(|i| rig::Point3::new((i % 20) as f64, (i / 20) as f64, 0.0)).collect();
+    rig::ply::write_cloud(&cloud, &rig::PointCloud::from_positions(pts), &Default::default()).unwrap();
+    let f = d.join("f.ply");
+    let o = scanrig(&[&"fuse", &cloud, &"-o", &f, &"--outliers", &f]);
+    assert!(!o.status.success() && stderr(&o).contains("--out and --outliers name the same file"), "{}", stderr(&o));
+    // Fusion asked for more neighbours than the cloud has points.
+    let o = scanrig(&[&"fuse", &cloud, &"-o", &f, &"--k", &"18446744073709551615"]);
+    assert!(!o.status.success() && stderr(&o).contains("the cloud has 200 points"), "{}", stderr(&o));
+    // Filter sizes and passes beyond any use.
+    let grid = d.join("g.ply");
+    let mut g = rig::RangeGrid::empty(8, 8, rig::Sensor::Center(rig::Point3::origin()));
+    for i in 0..64 {
+        g.points[i] = rig::Point3::new((i % 8) as f64, (i / 8) as f64, 100.0);
+        g.valid[i] = true;
+    }
+    rig::ply::write_range_grid(&grid, &g, &Default::default()).unwrap();
+    for (opt, value, want) in
+        [("--window", "999", "larger than the largest useful size"), ("--iterations", "0", "from 1 to 100")]
+    {
+        let o = scanrig(&[&"denoise", &grid, &"-o", &d.join("o.ply"), &opt, &value]);
+        assert!(!o.status.success() && stderr(&o).contains(want), "{opt}: {}", stderr(&o));
+    }
+    let o = scanrig(&[&"denoise", &grid, &"-o", &d.join("o.ply"), &"--temporal", &"18446744073709551615"]);
+    assert!(!o.status.success() && stderr(&o).contains("reaches past the 1 frames"), "{}", stderr(&o));
+    no_panic(&o);
+    // Crop options that cannot be right.
+    for bad in ["-5", "NaN"] {
+        let o = scanrig(&[&"process", &scan, &"--crop-radius", &bad]);
+        assert!(
+            !o.status.success() && stderr(&o).contains("--crop-radius must be a positive distance"),
+            "{}",
+            stderr(&o)
+        );
+    }
+}
+
+#[test]
+fn nothing_a_scan_folder_names_leads_outside_it() {
+    let d = fixtures::temp_dir("bad-outside");
+    let scan = d.join("scan");
+    let o = scanrig(&[&"sim", &"--views", &"1", &"--resolution", &"160x128", &"--no-truth", &"--out", &scan]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let manifest = std::fs::read_to_string(scan.join("scan.json")).unwrap();
+    std::fs::write(scan.join("scan.json"), manifest.replace("\"rig.toml\"", "\"/etc/passwd\"")).unwrap();
+    let o = scanrig(&[&"process", &scan]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("rig file `/etc/passwd` must be a relative path inside the scan folder"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!stderr(&o).contains("root:"), "no content of the file outside is shown");
+    std::fs::write(scan.join("scan.json"), &manifest).unwrap();
+    // frames/ moved out and linked back: followed, it would read outside the folder.
+    let outside = d.join("elsewhere");
+    std::fs::rename(scan.join("frames"), &outside).unwrap();
+    std::os::unix::fs::symlink(&outside, scan.join("frames")).unwrap();
+    let o = scanrig(&[&"process", &scan]);
+    assert!(!o.status.success());
+    no_panic(&o);
+    assert!(stderr(&o).contains("leads outside the scan folder"), "{}", stderr(&o));
 }

@@ -139,7 +139,7 @@ pub fn process_scan(
 ) -> Result<ProcessReport, Error> {
     let start = Instant::now();
     let manifest = Manifest::read(scan)?;
-    let rig_path = scan.join(&manifest.rig);
+    let rig_path = Manifest::inside(scan, &manifest.rig, "rig")?;
     let rig = Rig::read(&rig_path)?;
     if manifest.method == Method::Board {
         return Err(Error::BoardCapture { scan: scan.to_path_buf() });
@@ -168,14 +168,20 @@ pub fn process_scan(
     }
     let complete: Vec<usize> = (0..manifest.views.len()).filter(|&v| manifest.views[v].complete).collect();
     report.incomplete_views = (0..manifest.views.len()).filter(|v| !complete.contains(v)).collect();
+    if complete.is_empty() {
+        return Err(Error::NoCompleteViews { scan: scan.to_path_buf(), views: manifest.views.len() });
+    }
 
     let mut outputs: Vec<ViewOutput> = Vec::new();
     let mut triangulator: Option<Triangulator> = None;
     for (done, &v) in complete.iter().enumerate() {
         let t0 = Instant::now();
         let view = &manifest.views[v];
-        let frames: Vec<(Pattern, PathBuf)> =
-            view.frames.iter().map(|f| (f.pattern, Manifest::frame_path(scan, f))).collect();
+        let frames: Vec<(Pattern, PathBuf)> = view
+            .frames
+            .iter()
+            .map(|f| Ok((f.pattern, Manifest::inside(scan, &f.file, &format!("views[{v}].frames"))?)))
+            .collect::<Result<_, Error>>()?;
         let mut vr = ViewReport { view: v, angle_deg: view.angle_deg, reused: true, ..Default::default() };
         match manifest.method {
             Method::StructuredLight => {
@@ -286,6 +292,17 @@ pub fn process_scan(
                 outputs.push(ViewOutput { view: v, angle_deg: view.angle_deg, name: handed, hash, grid });
             }
             Method::Laser => {
+                if let Some(index) = frames.iter().find_map(|f| match f.0 {
+                    Pattern::Laser { index } if index >= rig.lasers.len() => Some(index),
+                    _ => None,
+                }) {
+                    return Err(Error::UnknownLaser {
+                        view: v,
+                        index,
+                        lasers: rig.lasers.len(),
+                        rig: rig_path.clone(),
+                    });
+                }
                 let off = frames
                     .iter()
                     .find(|f| f.0 == Pattern::LaserOff)
@@ -561,7 +578,7 @@ pub fn register_processed(
     params: &crate::multiview::MultiViewParams,
 ) -> Result<(PointCloud, Vec<ViewPose>, stages::RegisterReport), Error> {
     let manifest = Manifest::read(scan)?;
-    let rig_path = scan.join(&manifest.rig);
+    let rig_path = Manifest::inside(scan, &manifest.rig, "rig")?;
     let rig = Rig::read(&rig_path)?;
     let axis = rig.turntable.ok_or_else(|| Error::NoTurntable { rig: rig_path.clone() })?;
     let mut grids = Vec::new();

@@ -37,6 +37,47 @@ pub enum StageError {
         /// The camera's size.
         camera: (u32, u32),
     },
+    /// Fusion needs more points than its neighbourhoods hold.
+    #[error(
+        "the cloud has {points} points; fusion with {k} neighbours per kernel needs more (lower --k, or check \
+         that the scan found the object)"
+    )]
+    TooFewPoints {
+        /// Points in the cloud.
+        points: usize,
+        /// Neighbours per kernel.
+        k: usize,
+    },
+    /// A point or normal that is not a finite number.
+    #[error("point {index} of the cloud is not finite (position or normal NaN or infinite)")]
+    NonFinite {
+        /// The point.
+        index: usize,
+    },
+    /// The reconstruction found no surface.
+    #[error(
+        "the reconstruction found no surface in {points} points: the normals may point inward, or the cloud \
+         is spread over a far larger box than the object (a stray point far away)"
+    )]
+    NoSurface {
+        /// Points in the cloud.
+        points: usize,
+    },
+    /// A streamline spacing so small the quad mesh could not be built in reasonable time.
+    #[error(
+        "a spacing of {spacing} is {ratio:.0} times finer than the default for a mesh {diagonal:.4} across: \
+         give at least {smallest:.4}"
+    )]
+    SpacingTooSmall {
+        /// The spacing asked for.
+        spacing: Real,
+        /// The mesh's bounding-box diagonal.
+        diagonal: Real,
+        /// Default spacing over the asked one.
+        ratio: Real,
+        /// The smallest spacing accepted.
+        smallest: Real,
+    },
     /// Denoising refused the grid.
     #[error(transparent)]
     Denoise(#[from] DenoiseError),
@@ -285,6 +326,11 @@ impl Fused {
 
 /// Fuses a cloud (see [`FuseParams`]).
 pub fn fuse(cloud: &PointCloud, params: &FuseParams) -> Result<(Fused, FuseReport), StageError> {
+    check_finite(cloud)?;
+    let k = params.mean_shift.k;
+    if cloud.len() <= k.max(params.mean_shift.density_k) {
+        return Err(StageError::TooFewPoints { points: cloud.len(), k });
+    }
     let mut result = crate::mean_shift::mean_shift(cloud, &params.mean_shift);
     let mut oriented_parts = None;
     if cloud.normals.is_none()
@@ -357,7 +403,8 @@ impl ReconstructReport {
 
 /// A watertight mesh of an oriented cloud.
 pub fn reconstruct(cloud: &PointCloud, params: &ReconstructParams) -> Result<(TriMesh, ReconstructReport), StageError> {
-    Ok(match params {
+    check_finite(cloud)?;
+    let (mesh, report) = match params {
         ReconstructParams::Fft(p) => {
             let (m, r) = reconstruct_fft(cloud, p)?;
             (m, ReconstructReport::Fft(r))
@@ -366,13 +413,39 @@ pub fn reconstruct(cloud: &PointCloud, params: &ReconstructParams) -> Result<(Tr
             let (m, r) = reconstruct_adfft(cloud, p)?;
             (m, ReconstructReport::Adfft(r))
         }
-    })
+    };
+    if mesh.faces.is_empty() {
+        return Err(StageError::NoSurface { points: cloud.len() });
+    }
+    Ok((mesh, report))
+}
+
+/// Refuses a cloud with a NaN or infinite position or normal: every later distance would be NaN.
+fn check_finite(cloud: &PointCloud) -> Result<(), StageError> {
+    let bad_point = cloud.positions.iter().position(|p| !p.coords.iter().all(|x| x.is_finite()));
+    let bad_normal = cloud.normals.as_ref().and_then(|n| n.iter().position(|v| !v.iter().all(|x| x.is_finite())));
+    match bad_point.into_iter().chain(bad_normal).min() {
+        Some(index) => Err(StageError::NonFinite { index }),
+        None => Ok(()),
+    }
 }
 
 /// A quad mesh of a triangle mesh (ch. 6).
 pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, RemeshReport), StageError> {
+    if let (Some(spacing), Some(b)) = (params.spacing, mesh.bounding_box()) {
+        let diagonal = b.diagonal();
+        let default = crate::remesh::quad_remesh::DEFAULT_SPACING * diagonal;
+        // Quads grow with (default / spacing)²: 50× finer is 2,500× the faces of the default remesh.
+        if spacing < default / MAX_SPACING_REFINEMENT {
+            let smallest = default / MAX_SPACING_REFINEMENT;
+            return Err(StageError::SpacingTooSmall { spacing, diagonal, ratio: default / spacing, smallest });
+        }
+    }
     Ok(crate::remesh::remesh(mesh, params)?)
 }
+
+/// How much finer than the default a remesh spacing may be.
+pub const MAX_SPACING_REFINEMENT: Real = 50.0;
 
 /// The registered poses as `registered.poses.json` holds them.
 pub fn poses_json(poses: &[ViewPose]) -> Vec<u8> {

@@ -238,6 +238,10 @@ pub(crate) fn parse_header(bytes: &[u8]) -> Result<(Header, usize), ParseError> 
             Some("element") => {
                 let [_, name, count] = words[..] else { return Err(malformed()) };
                 let count = count.parse::<u64>().map_err(|_| malformed())?;
+                // A second `vertex` element would leave readers to pick one of two point sets.
+                if elements.iter().any(|e| e.name == name) {
+                    return Err(err(line_no, Problem::Invalid(format!("element `{name}` is declared twice"))));
+                }
                 elements.push(ElementDef { name: name.to_string(), count, properties: Vec::new() });
             }
             Some("property") => {
@@ -256,6 +260,10 @@ pub(crate) fn parse_header(bytes: &[u8]) -> Result<(Header, usize), ParseError> 
                 let Some(el) = elements.last_mut() else {
                     return Err(err(line_no, Problem::Invalid("`property` before any `element`".into())));
                 };
+                if el.properties.iter().any(|p| p.name == name) {
+                    let msg = format!("property `{name}` of element `{}` is declared twice", el.name);
+                    return Err(err(line_no, Problem::Invalid(msg)));
+                }
                 el.properties.push(PropertyDef { name: name.to_string(), kind });
             }
             Some(_) => {

@@ -89,6 +89,23 @@ fn catalogue() -> Vec<Case> {
             message: "element `vertex` #1 (line 11): `abc` is not a number",
             is: |p| matches!(p, Problem::NotANumber(t) if t == "abc"),
         },
+        // Issue 19, defect 16: which `x`, which vertex set? Refused rather than one silently chosen.
+        Case {
+            name: "duplicate_property.ply",
+            bytes: b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float x\nend_header\n1 2 3\n"
+                .to_vec(),
+            read: cloud,
+            message: "line 6: property `x` of element `vertex` is declared twice",
+            is: |p| matches!(p, Problem::Invalid(_)),
+        },
+        Case {
+            name: "duplicate_element.ply",
+            bytes: b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nelement vertex 1\nproperty float x\nend_header\n1\n2\n"
+                .to_vec(),
+            read: cloud,
+            message: "line 5: element `vertex` is declared twice",
+            is: |p| matches!(p, Problem::Invalid(_)),
+        },
         Case {
             name: "unknown_header_line.ply",
             bytes: b"ply\nformat ascii 1.0\ncolour red\nend_header\n".to_vec(),
