@@ -89,6 +89,10 @@ fn a_corrupt_cached_projector_map_is_made_again() {
     assert!(why.contains("changed since it was written"), "{report}");
     let again = rig::ply::read_range_grid(&scan.join("processed/views/view_000.ply")).unwrap();
     assert_eq!(again.valid_count(), grid.valid_count());
+    // Stopping after decoding still reports the view (it was left out of report.json before).
+    let o = scanrig(&[&"process", &scan, &"--until", &"decode", &"--json"]);
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["views"][0]["decode"]["reused"], true, "{report}");
 }
 
 #[test]

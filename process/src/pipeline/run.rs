@@ -214,6 +214,10 @@ pub fn process_scan(
                 vr.reused &= decision.reused();
                 report.outputs.push(name.clone());
                 if params.until < Stage::Triangulate {
+                    // Stopping after decoding still reports the view and records its map.
+                    vr.seconds = t0.elapsed().as_secs_f64();
+                    report.views.push(vr);
+                    o.records.save()?;
                     progress(Stage::Decode, done + 1, complete.len());
                     continue;
                 }
