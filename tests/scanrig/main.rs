@@ -6,4 +6,5 @@ mod cli;
 mod data_files;
 #[cfg(feature = "projector-window")]
 mod projector_window;
+mod shared_demo;
 mod stages;

@@ -27,10 +27,9 @@ fn same_bytes(a: &Path, b: &Path) {
     assert!(x == y, "{} ({} bytes) and {} ({} bytes) differ", a.display(), x.len(), b.display(), y.len());
 }
 
-/// A small simulated scan, processed: the demo's 640 × 512 rig with two views.
+/// A small simulated scan, processed: a copy of the demo's 640 × 512 rig with two views.
 fn processed_scan(dir: &Path, extra: &[&str]) -> (PathBuf, PathBuf) {
-    let out = dir.join("demo");
-    ok(scanrig(&[&"demo", &"--views", &"2", &"--out", &out]));
+    let out = crate::shared_demo::copy_demo(dir);
     let (scan, processed) = (out.join("scan"), out.join("processed"));
     if !extra.is_empty() {
         let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"process", &scan, &"--out", &processed];
