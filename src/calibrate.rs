@@ -49,14 +49,36 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         progress.update(what, done, total)
     })?;
     progress.finish();
-    rig.write(&args.out)?;
-    if let Some(yaml) = &args.yaml {
-        rig::opencv_yaml::write_camera(yaml, &rig.camera)?;
+    let warnings: Vec<String> =
+        report["warnings"].as_array().into_iter().flatten().filter_map(|w| w.as_str().map(str::to_string)).collect();
+    for s in report["skipped"].as_array().into_iter().flatten() {
+        eprintln!("note: skipped the {} step: {}", s["step"].as_str().unwrap_or("?"), s["why"].as_str().unwrap_or("?"));
     }
-    report.insert("rig".into(), json!(args.out));
-    let report = Value::Object(report);
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     let report_path = report_path(&args.out);
+    let implausible = !warnings.is_empty() && !args.force;
+    // An implausible rig is not written (an existing rig file stays as it was); its report is, so
+    // the figures can be looked at.
+    if !implausible {
+        rig.write(&args.out)?;
+        if let Some(yaml) = &args.yaml {
+            rig::opencv_yaml::write_camera(yaml, &rig.camera)?;
+        }
+        report.insert("rig".into(), json!(args.out));
+    }
+    let report = Value::Object(report);
     rig::error::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    if implausible {
+        anyhow::bail!(
+            "the calibration cannot be right ({} finding(s) above; report in {}); {} was not written — fix the \
+             captures or the options, or give --force to write it anyway",
+            warnings.len(),
+            report_path.display(),
+            args.out.display()
+        );
+    }
     print(args, &report, &report_path)
 }
 

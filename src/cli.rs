@@ -1,7 +1,7 @@
 //! The command-line grammar (clap derive). Each subcommand's arguments are a plain struct its module
 //! turns into library calls.
 
-use crate::stage_args::{CropOpts, DecodeOpts, DenoiseOpts, FuseOpts, ReconstructOpts, RemeshOpts};
+use crate::stage_args::{CropOpts, DecodeOpts, DenoiseOpts, FuseOpts, ReconstructOpts, RegisterOpts, RemeshOpts};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
@@ -22,6 +22,23 @@ mod tests {
     fn the_grammar_is_consistent() {
         use clap::CommandFactory;
         super::Args::command().debug_assert();
+    }
+
+    #[test]
+    fn sizes_boards_and_sweeps_are_bounded() {
+        use super::{parse_board, parse_size, parse_sweep};
+        assert_eq!(parse_size("640x512"), Ok((640, 512)));
+        for bad in ["4294967295x4294967295", "32769x10", "0x5", "x", "-1x5", "1.5x2"] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
+        assert_eq!(parse_board("9x6"), Ok((9, 6)));
+        for bad in ["100000x100000", "1x6", "201x3"] {
+            assert!(parse_board(bad).is_err(), "{bad}");
+        }
+        assert_eq!(parse_sweep("-60:60:10").unwrap().0.len(), 13);
+        for bad in ["0:1e9:1e-9", "0:inf:1", "0:10:0", "NaN:1:1"] {
+            assert!(parse_sweep(bad).is_err(), "{bad}");
+        }
     }
 }
 
@@ -280,7 +297,7 @@ pub struct SimArgs {
     #[arg(long, short, default_value = "scan-sim")]
     pub out: PathBuf,
     /// Calibration captures of a chessboard with COLSxROWS inner corners instead of a scan.
-    #[arg(long, value_parser = parse_size)]
+    #[arg(long, value_parser = parse_board)]
     pub board: Option<(u32, u32)>,
     /// The chessboard's square size, mm.
     #[arg(long, default_value_t = 15.0)]
@@ -321,10 +338,25 @@ fn parse_vec3(s: &str) -> Result<[f64; 3], String> {
     <[f64; 3]>::try_from(v).map_err(|v| format!("expected X,Y,Z, got {} values", v.len()))
 }
 
+/// An image size WIDTHxHEIGHT, each side 1 to the largest camera or projector side.
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    parse_pair(s, 1, rig::camera::MAX_SIDE_PX, "pixels")
+}
+
+/// A chessboard's inner corners COLSxROWS: at least 2×2 to fix a pose, at most 200 a side (a board
+/// finer than that spans fewer than 20 pixels a square on any camera's image).
+fn parse_board(s: &str) -> Result<(u32, u32), String> {
+    parse_pair(s, 2, MAX_BOARD_CORNERS, "inner corners")
+}
+
+/// The most inner corners a side of a chessboard.
+pub const MAX_BOARD_CORNERS: u32 = 200;
+
+fn parse_pair(s: &str, min: u32, max: u32, unit: &str) -> Result<(u32, u32), String> {
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, got `{s}`"))?;
     let parse = |t: &str| {
-        t.trim().parse::<u32>().ok().filter(|&v| v > 0).ok_or_else(|| format!("`{t}` is not a positive size"))
+        let v = t.trim().parse::<u32>().map_err(|_| format!("`{t}` is not a whole number"))?;
+        if (min..=max).contains(&v) { Ok(v) } else { Err(format!("{v} must be {min} to {max} {unit}")) }
     };
     Ok((parse(w)?, parse(h)?))
 }
@@ -340,7 +372,12 @@ fn parse_sweep(s: &str) -> Result<Sweep, String> {
     if step.is_nan() || step <= 0.0 || b < a {
         return Err("the sweep needs END ≥ START and a positive STEP".into());
     }
-    let n = ((b - a) / step + 1e-9).floor() as usize + 1;
+    let n = ((b - a) / step + 1e-9).floor() + 1.0;
+    // More board poses than a turntable has tenth-degree steps is a typo, and each pose is a capture.
+    if n.is_nan() || n > 3600.0 {
+        return Err(format!("the sweep gives {n} poses; at most 3600"));
+    }
+    let n = n as usize;
     Ok(Sweep((0..n).map(|k| a + k as f64 * step).collect()))
 }
 
@@ -364,7 +401,7 @@ pub struct ProcessArgs {
     pub until: process::Stage,
     /// Redo stages whose outputs are already current.
     #[arg(long)]
-    pub force: bool,
+    pub redo: bool,
     /// Skip the denoising stage.
     #[arg(long)]
     pub no_denoise: bool,
@@ -377,6 +414,9 @@ pub struct ProcessArgs {
     /// The object cylinder.
     #[command(flatten, next_help_heading = "Merging")]
     pub crop: CropOpts,
+    /// Registration (as `scanrig register`).
+    #[command(flatten, next_help_heading = "Registration")]
+    pub register: RegisterOpts,
     /// Fusion (as `scanrig fuse`).
     #[command(flatten, next_help_heading = "Fusion")]
     pub fuse: FuseOpts,
@@ -475,6 +515,9 @@ pub struct ReconstructArgs {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Write the mesh even when it lies far from its cloud (it is still warned about).
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -521,7 +564,7 @@ pub struct CalibrateArgs {
     #[arg(long, short)]
     pub out: PathBuf,
     /// Inner corners of the chessboard, COLSxROWS.
-    #[arg(long, value_parser = parse_size, default_value = "9x6")]
+    #[arg(long, value_parser = parse_board, default_value = "9x6")]
     pub board: (u32, u32),
     /// Square size, mm.
     #[arg(long, default_value_t = 15.0)]
@@ -562,6 +605,10 @@ pub struct CalibrateArgs {
     /// Print the report as JSON (it is also written beside the rig, as NAME.report.json).
     #[arg(long)]
     pub json: bool,
+    /// Write the rig even when its figures cannot be right (a reprojection error over 2 px, a
+    /// principal point far off centre, runaway distortion); they are still warned about.
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -611,6 +658,9 @@ pub struct RegisterArgs {
     /// The object cylinder.
     #[command(flatten)]
     pub crop: CropOpts,
+    /// The corrections accepted.
+    #[command(flatten)]
+    pub register: RegisterOpts,
     /// Print the poses as JSON.
     #[arg(long)]
     pub json: bool,

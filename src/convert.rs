@@ -6,6 +6,7 @@ use rig::ply::{Encoding, Precision, WriteOptions};
 use rig::{MeshFormat, PolyMesh};
 
 pub fn run(args: &ConvertArgs) -> Result<()> {
+    crate::outputs::distinct(&[("OUTPUT", Some(&args.output))])?;
     let mut opts = WriteOptions {
         encoding: if args.ascii { Encoding::Ascii } else { Encoding::BinaryLittleEndian },
         precision: if args.double { Precision::F64 } else { Precision::F32 },
@@ -23,8 +24,31 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
         }
         _ => Some(rig::read_mesh(&args.input)?).filter(|m| m.face_count() > 0),
     };
+    // Single precision holds up to about 3.4e38: a larger coordinate would be written as infinity,
+    // which no reader (scanrig's included) takes back.
+    let too_large = |points: &mut dyn Iterator<Item = &rig::Point3>| {
+        points.enumerate().find(|(_, p)| p.coords.iter().any(|c| c.abs() > f32::MAX as f64)).map(|(i, p)| (i, *p))
+    };
+    let check = |found: Option<(usize, rig::Point3)>| -> Result<()> {
+        match found {
+            Some((i, p))
+                if opts.precision == Precision::F32
+                    && matches!(MeshFormat::of(&args.output), Some(MeshFormat::Ply)) =>
+            {
+                anyhow::bail!(
+                    "{}: vertex {i} at ({}, {}, {}) is beyond single precision's range; convert with --double",
+                    args.input.display(),
+                    p.x,
+                    p.y,
+                    p.z
+                )
+            }
+            _ => Ok(()),
+        }
+    };
     match mesh {
         Some(m) => {
+            check(too_large(&mut m.vertices.iter()))?;
             rig::write_mesh(&args.output, &m, &opts)?;
             if args.json {
                 let json = serde_json::json!({"output": args.output, "kind": "mesh", "vertices": m.vertices.len(), "faces": m.face_count()});
@@ -35,6 +59,7 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
         }
         None => {
             let cloud = rig::read_cloud(&args.input)?;
+            check(too_large(&mut cloud.positions.iter()))?;
             rig::write_cloud(&args.output, &cloud, &opts).with_context(|| "writing the point cloud")?;
             if args.json {
                 let json = serde_json::json!({"output": args.output, "kind": "cloud", "points": cloud.len()});

@@ -22,6 +22,7 @@ pub fn opencv_order(w: u32, h: u32) -> Vec<Pattern> {
 }
 
 pub fn run(args: &DecodeArgs) -> Result<()> {
+    crate::outputs::distinct(&[("--out", Some(&args.out))])?;
     let (pw, ph) = args.projector;
     let order = match args.order {
         FrameOrder::Opencv => opencv_order(pw, ph),

@@ -23,6 +23,18 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // A panic is a bug in scanrig, never the user's doing: say so in one line, with where it happened,
+    // instead of Rust's panic text and backtrace.
+    std::panic::set_hook(Box::new(|info| {
+        let what = info
+            .payload()
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| info.payload().downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        let at = info.location().map(|l| format!(" ({}:{})", l.file(), l.line())).unwrap_or_default();
+        eprintln!("error: internal error in scanrig{at}: {what}. This is a bug; please report it with the command.");
+    }));
     let args = cli::Args::parse();
     progress::set_quiet(args.quiet);
     let result = match args.command {

@@ -4,9 +4,19 @@
 use anyhow::{Result, bail};
 use std::path::Path;
 
-/// Fails when two of the named output paths are the same file (a result would be lost).
+/// Fails when a named output path is a folder (or ends in `/`) where a file is wanted, or two of them
+/// are the same file (a result would be lost) — checked before any work starts.
 pub fn distinct(outputs: &[(&str, Option<&Path>)]) -> Result<()> {
     let given: Vec<(&str, &Path)> = outputs.iter().filter_map(|(n, p)| p.map(|p| (*n, p))).collect();
+    for (name, p) in &given {
+        if p.is_dir() || p.as_os_str().to_string_lossy().ends_with('/') {
+            bail!(
+                "{name} {} is a folder; give the file to write (for example {})",
+                p.display(),
+                p.join("out").display()
+            );
+        }
+    }
     for (i, (a, pa)) in given.iter().enumerate() {
         for (b, pb) in &given[i + 1..] {
             if same_file(pa, pb) {

@@ -9,11 +9,15 @@ use std::io::Write;
 
 pub fn run(args: &ReconstructArgs) -> Result<()> {
     let params = args.reconstruct.params()?;
+    crate::outputs::distinct(&[("--out", Some(&args.out)), ("input", Some(&args.input))])?;
     let cloud = rig::read_cloud(&args.input)?;
     let opts = crate::outputs::write_options_like(&args.input)?;
     let start = std::time::Instant::now();
-    let (mesh, report) =
-        stages::reconstruct(&cloud, &params).with_context(|| format!("reconstructing {}", args.input.display()))?;
+    let context = || format!("reconstructing {}", args.input.display());
+    let (mesh, report) = stages::reconstruct(&cloud, &params).with_context(context)?;
+    if let Some(w) = stages::check_support(&mesh, &cloud, args.force).with_context(context)? {
+        eprintln!("warning: {w}");
+    }
     let seconds = start.elapsed().as_secs_f64();
     rig::write_mesh(&args.out, &mesh.to_poly(), &opts)?;
     let t = topology(&mesh);

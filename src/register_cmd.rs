@@ -10,10 +10,17 @@ pub fn run(args: &RegisterArgs) -> Result<()> {
     let out = args.out.clone().unwrap_or_else(|| processed.join(process::pipeline::layout::REGISTERED));
     let poses_path = out.with_extension("poses.json");
     let crop = args.crop.params()?;
+    let params = args.register.params()?;
     crate::progress::note(format!("registering the views of {} …", processed.display()));
-    let (cloud, poses, report) =
-        process::pipeline::register_processed(&args.scan, &processed, &crop, &Default::default())
-            .with_context(|| format!("registering {}", args.scan.display()))?;
+    let (cloud, poses, report) = process::pipeline::register_processed(&args.scan, &processed, &crop, &params)
+        .with_context(|| format!("registering {}", args.scan.display()))?;
+    // Before anything is written: a refused correction fails unless forced.
+    let warnings = report
+        .check(&params.tolerance, args.register.force)
+        .with_context(|| format!("registering {}", args.scan.display()))?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     rig::write_cloud(&out, &cloud, &rig::ply::WriteOptions::default().with_units("mm"))?;
     rig::write_atomic(&poses_path, &process::pipeline::stages::poses_json(&poses))?;
     let mut o = std::io::stdout().lock();

@@ -11,7 +11,12 @@ use std::io::Write;
 pub fn run(args: &RemeshArgs) -> Result<()> {
     let mut params = args.remesh.params()?;
     crate::outputs::distinct(&[("--out", Some(&args.out)), ("--lines", args.lines.as_deref())])?;
-    let mesh = rig::read_mesh(&args.input)?.triangulate();
+    let mesh = rig::read_mesh(&args.input)
+        .map_err(|e| match e.to_string().contains("element `face`") {
+            true => anyhow::anyhow!("{e}: a point cloud? `scanrig reconstruct` makes a mesh of one"),
+            false => e.into(),
+        })?
+        .triangulate();
     anyhow::ensure!(
         !mesh.faces.is_empty(),
         "{}: the mesh has no faces (a point cloud? `scanrig reconstruct` makes a mesh of one)",

@@ -20,9 +20,17 @@ pub fn world_config(world: &SimWorld) -> Result<SimConfig> {
     if let Some((w, h)) = world.resolution {
         cfg = cfg.with_camera_resolution(w, h);
     }
+    let (w, h) = (cfg.rig.camera.width, cfg.rig.camera.height);
+    rig::memory::check(
+        sim::scan::memory_estimate(&cfg),
+        &format!("simulating {w}x{h} views"),
+        "choose a smaller --resolution",
+    )?;
     if let Some(v) = world.views {
-        if v == 0 {
-            bail!("--views must be at least 1");
+        // Each view is a turn of the table and a set of frames on disk: more than a tenth-degree step
+        // is a typo (and --views 100000 wrote a 1.2 GB manifest).
+        if !(1..=3600).contains(&v) {
+            bail!("--views must be 1 to 3600, got {v}");
         }
         cfg.scan.views = v;
     }
@@ -75,6 +83,9 @@ fn run_board(args: &SimArgs, cfg: &SimConfig, board: sim::Board) -> Result<()> {
         (None, Some(_)) => 0,
         (None, None) => 15,
     };
+    if held > 3600 {
+        bail!("--poses must be at most 3600, got {held}");
+    }
     let distance = cfg.rig.turntable.map(|t| t.point.coords.norm()).unwrap_or(400.0);
     let poses = sim::BoardPoses {
         held: sim::board::default_fixed_poses(&board, distance, held),

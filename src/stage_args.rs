@@ -11,6 +11,7 @@ use process::pipeline::stages::{DenoiseStage, FuseParams, ReconstructParams};
 use process::placement::CropParams;
 use process::reconstruct::adfft::AdFftParams;
 use process::reconstruct::global_fft::FftParams;
+use process::register_scan::{RegisterParams, Tolerance};
 use process::remesh::RemeshParams;
 
 /// Structured-light decoding.
@@ -189,20 +190,21 @@ pub struct ReconstructOpts {
     /// average (cloud units; default half a grid cell).
     #[arg(long)]
     pub error: Option<f64>,
-    /// The global method: refuse grids needing more memory than this, GB.
+    /// Refuse reconstructions estimated to need more memory than this, GB (and any the machine
+    /// cannot hold).
     #[arg(long, default_value_t = FftParams::default().memory_budget as f64 / 1e9)]
     pub memory_budget: f64,
 }
 
 impl ReconstructOpts {
     pub fn params(&self) -> Result<ReconstructParams> {
+        if !(self.memory_budget > 0.0 && self.memory_budget.is_finite()) {
+            bail!("--memory-budget must be a positive number of GB, got {}", self.memory_budget);
+        }
         Ok(match self.method {
             MethodArg::Fft => {
                 if self.error.is_some() {
                     bail!("--error steers AdFFT's octree; the global method (--method fft) has none");
-                }
-                if !(self.memory_budget > 0.0 && self.memory_budget.is_finite()) {
-                    bail!("--memory-budget must be a positive number of GB, got {}", self.memory_budget);
                 }
                 let d = FftParams::default();
                 ReconstructParams::Fft(FftParams {
@@ -218,7 +220,12 @@ impl ReconstructOpts {
                     bail!("--error must be a positive distance, got {e}");
                 }
                 let d = AdFftParams::default();
-                ReconstructParams::Adfft(AdFftParams { depth: self.depth.unwrap_or(d.depth), error: self.error, ..d })
+                ReconstructParams::Adfft(AdFftParams {
+                    depth: self.depth.unwrap_or(d.depth),
+                    error: self.error,
+                    memory_budget: (self.memory_budget * 1e9) as u64,
+                    ..d
+                })
             }
         })
     }
@@ -287,6 +294,35 @@ impl CropOpts {
     }
 }
 
+/// Registration: how far it may move a view from its turntable pose, and whether to go on past that.
+#[derive(Args, Debug, Clone)]
+pub struct RegisterOpts {
+    /// Largest rotation registration may give a view, degrees: beyond it the correction is refused.
+    #[arg(long, default_value_t = Tolerance::default().rotation_deg, allow_hyphen_values = true)]
+    pub max_correction_deg: f64,
+    /// Largest movement registration may give a view, mm: beyond it the correction is refused.
+    #[arg(long, default_value_t = Tolerance::default().shift_mm, allow_hyphen_values = true)]
+    pub max_correction_mm: f64,
+    /// Go on past results that cannot be right (a refused registration correction), with a warning.
+    #[arg(long)]
+    pub force: bool,
+}
+
+impl RegisterOpts {
+    pub fn params(&self) -> Result<RegisterParams> {
+        if !(self.max_correction_deg > 0.0 && self.max_correction_deg <= 180.0) {
+            bail!("--max-correction-deg must be an angle in (0, 180] degrees, got {}", self.max_correction_deg);
+        }
+        if !(self.max_correction_mm > 0.0 && self.max_correction_mm.is_finite()) {
+            bail!("--max-correction-mm must be a positive distance in mm, got {}", self.max_correction_mm);
+        }
+        Ok(RegisterParams {
+            tolerance: Tolerance { rotation_deg: self.max_correction_deg, shift_mm: self.max_correction_mm },
+            ..Default::default()
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -306,6 +342,8 @@ mod tests {
         remesh: RemeshOpts,
         #[command(flatten)]
         crop: CropOpts,
+        #[command(flatten)]
+        register: RegisterOpts,
     }
 
     #[test]
@@ -317,6 +355,10 @@ mod tests {
         assert_eq!(a.reconstruct.params().unwrap(), ReconstructParams::default());
         assert_eq!(a.remesh.params().unwrap(), RemeshParams::default());
         assert_eq!(a.crop.params().unwrap(), CropParams::default());
+        assert_eq!(a.register.params().unwrap(), RegisterParams::default());
+        for bad in [["--max-correction-deg", "0"], ["--max-correction-deg", "NaN"], ["--max-correction-mm", "-1"]] {
+            assert!(All::parse_from(["x", bad[0], bad[1]]).register.params().is_err(), "{bad:?}");
+        }
         let a = All::parse_from(["x", "--method", "adfft"]);
         assert_eq!(a.reconstruct.params().unwrap(), ReconstructParams::Adfft(AdFftParams::default()));
     }

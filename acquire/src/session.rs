@@ -258,13 +258,14 @@ pub fn run(
             total,
             error: Box::new(e),
         })?;
-        manifest.views[v].complete = true;
-        manifest.write(out)?;
+        manifest.complete_view(out, v)?;
         captured += 1;
         let per_view = start.elapsed().as_secs_f64() / captured as f64;
         let left = total - complete(&manifest);
         progress(complete(&manifest), total, Some(Duration::from_secs_f64(per_view * left as f64)));
     }
+    // Every view journalled: fold the journal into scan.json.
+    manifest.write(out)?;
     // Finish: lasers off, motor released.
     let finish = |t: &mut dyn Turntable| -> Result<(), TurntableError> {
         for i in 0..lasers {

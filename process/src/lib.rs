@@ -155,7 +155,7 @@ pub enum Error {
         scan: PathBuf,
     },
     /// A cached projector map of the wrong shape.
-    #[error("{}: not a projector map (an H × W × 3 array); rerun with --force", path.display())]
+    #[error("{}: not a projector map (an H × W × 3 array); rerun with --redo", path.display())]
     NotAProjectorMap {
         /// The file.
         path: PathBuf,

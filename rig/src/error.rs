@@ -4,6 +4,20 @@
 use std::fmt;
 use std::path::{Path, PathBuf};
 
+/// "there are 3 vertices, numbered 1 to 3" (or that there are none).
+fn numbering(count: &usize, first: &u8, what: &str) -> String {
+    let (count, first) = (*count, *first as i64);
+    let plural = match what {
+        "vertex" => "vertices".to_string(),
+        w => format!("{w}s"),
+    };
+    if count == 0 {
+        format!("the file has no {plural} before it")
+    } else {
+        format!("there are {count} {plural}, numbered {first} to {}", first + count as i64 - 1)
+    }
+}
+
 /// Where in a file a problem was found.
 #[derive(Debug, Clone, PartialEq, Eq)]
 #[non_exhaustive]
@@ -90,14 +104,21 @@ pub enum Problem {
         /// The declared type.
         ty: &'static str,
     },
-    /// A face refers to a vertex that does not exist.
-    #[error("vertex index {index} is out of range (there are {count} vertices)")]
+    /// A face refers to a vertex (or texture coordinate, or normal) that does not exist.
+    #[error("{what} index {index} is out of range ({})", numbering(.count, .first, .what))]
     IndexOutOfRange {
-        /// The index as read (0-based, after OBJ's 1-based or relative indexing is resolved).
-        index: i64,
-        /// How many vertices exist.
+        /// The index as written in the file.
+        index: Box<str>,
+        /// What it indexes: `vertex`, `texture coordinate`, `normal`.
+        what: &'static str,
+        /// How many of them exist.
         count: usize,
+        /// The format's first index: 1 for OBJ, 0 for PLY and OFF.
+        first: u8,
     },
+    /// A face index that is not a whole number (a float list type holding 1.5, NaN).
+    #[error("face index {0} is not a whole number")]
+    FractionalIndex(String),
     /// A face with fewer than three corners.
     #[error("a face needs at least 3 vertices, this one has {0}")]
     DegenerateFace(usize),

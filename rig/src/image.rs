@@ -133,7 +133,18 @@ pub fn decode_jpeg(bytes: &[u8]) -> Result<Image8, ParseError> {
     use zune_core::colorspace::ColorSpace;
     use zune_core::options::DecoderOptions;
     let bad = |m: String| ParseError::new(Location::File, Problem::Invalid(m));
-    let options = DecoderOptions::default().jpeg_set_out_colorspace(ColorSpace::Luma);
+    // A file cut short (a copy that stopped, a camera that lost power) decodes "successfully" with its
+    // missing rows grey: the image must end with an end-of-image marker after its last scan. (An EXIF
+    // thumbnail brings its own markers, but before the main image's scan.) Entropy-coded data never
+    // holds FF D9, so the search cannot be fooled by the pixels.
+    let last_scan = bytes.windows(2).rposition(|w| w == [0xFF, 0xDA]);
+    let end = bytes.windows(2).rposition(|w| w == [0xFF, 0xD9]);
+    if let Some(scan) = last_scan
+        && end.is_none_or(|e| e <= scan)
+    {
+        return Err(bad("the JPEG is truncated: its data stops before the end-of-image marker".into()));
+    }
+    let options = DecoderOptions::default().jpeg_set_out_colorspace(ColorSpace::Luma).set_strict_mode(true);
     let mut dec = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
     dec.decode_headers().map_err(|e| bad(format!("not a readable JPEG: {e:?}")))?;
     let info = dec.info().ok_or_else(|| bad("a JPEG without a frame header".into()))?;

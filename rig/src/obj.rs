@@ -66,14 +66,14 @@ fn number(tok: &str, line: usize) -> Result<f64, ParseError> {
         .map_err(|_| ParseError::new(Location::Line(line), Problem::NotANumber(tok.chars().take(40).collect())))
 }
 
-/// Resolves a 1-based (or negative, relative) OBJ index against `count` items.
-fn resolve(tok: &str, count: usize, line: usize) -> Result<usize, ParseError> {
+/// Resolves a 1-based (or negative, relative) OBJ index against the `count` items of `what` so far.
+fn resolve(tok: &str, count: usize, what: &'static str, line: usize) -> Result<usize, ParseError> {
     let at = Location::Line(line);
-    let i: i64 =
-        tok.parse().map_err(|_| ParseError::new(at.clone(), Problem::NotANumber(tok.chars().take(40).collect())))?;
+    let shown = || tok.chars().take(40).collect::<String>();
+    let i: i64 = tok.parse().map_err(|_| ParseError::new(at.clone(), Problem::NotANumber(shown())))?;
     let zero_based = if i < 0 { count as i64 + i } else { i - 1 };
     if i == 0 || zero_based < 0 || zero_based >= count as i64 {
-        return Err(ParseError::new(at, Problem::IndexOutOfRange { index: zero_based, count }));
+        return Err(ParseError::new(at, Problem::IndexOutOfRange { index: shown().into(), what, count, first: 1 }));
     }
     Ok(zero_based as usize)
 }
@@ -130,11 +130,17 @@ pub fn parse(bytes: &[u8]) -> Result<ObjFile, ParseError> {
                 face.clear();
                 for corner in toks {
                     let mut parts = corner.split('/');
-                    let v = resolve(parts.next().unwrap_or(""), mesh.vertices.len(), line)?;
-                    let _vt =
-                        parts.next().filter(|s| !s.is_empty()).map(|t| resolve(t, texcoord_count, line)).transpose()?;
-                    let vn =
-                        parts.next().filter(|s| !s.is_empty()).map(|t| resolve(t, normals.len(), line)).transpose()?;
+                    let v = resolve(parts.next().unwrap_or(""), mesh.vertices.len(), "vertex", line)?;
+                    let _vt = parts
+                        .next()
+                        .filter(|s| !s.is_empty())
+                        .map(|t| resolve(t, texcoord_count, "texture coordinate", line))
+                        .transpose()?;
+                    let vn = parts
+                        .next()
+                        .filter(|s| !s.is_empty())
+                        .map(|t| resolve(t, normals.len(), "normal", line))
+                        .transpose()?;
                     paired_by_index &= vn == Some(v);
                     match (vertex_normal[v], vn) {
                         (_, None) => normals_consistent = false,

@@ -81,7 +81,10 @@ pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
                 toks.next().ok_or_else(|| err(line, Problem::Truncated(format!("the {k} indices of this face"))))?;
             let idx = t.parse::<i64>().map_err(|_| err(line, Problem::NotANumber(t.chars().take(40).collect())))?;
             if idx < 0 || idx as usize >= nv {
-                return Err(err(line, Problem::IndexOutOfRange { index: idx, count: nv }));
+                return Err(err(
+                    line,
+                    Problem::IndexOutOfRange { index: idx.to_string().into(), what: "vertex", count: nv, first: 0 },
+                ));
             }
             face.push(idx as u32);
         }

@@ -203,10 +203,10 @@ pub fn simulate_board(
             let n = px.len() / 2;
             rig::npy::write(&dir.join("corners.npy"), &NpyArray { shape: vec![n, 2], data: NpyData::F64(px) })?;
         }
-        manifest.views[v].complete = true;
-        manifest.write(out)?;
+        manifest.complete_view(out, v)?;
         report.add_view(t0, t1, patterns.len());
         progress(v + 1, angles.len());
     }
+    manifest.write(out)?;
     Ok(report.finish(start))
 }

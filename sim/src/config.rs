@@ -224,8 +224,8 @@ impl SimConfig {
         if !(p.power >= 0.0 && p.gamma > 0.0 && (0.0..1.0).contains(&p.black_level) && p.defocus_px >= 0.0) {
             return Err(invalid("projector", "power ≥ 0, gamma > 0, 0 ≤ black_level < 1, defocus_px ≥ 0"));
         }
-        if t.scan.views == 0 {
-            return Err(invalid("scan.views", "must be at least 1"));
+        if !(1..=3600).contains(&t.scan.views) {
+            return Err(invalid("scan.views", "must be 1 to 3600 (a tenth of a degree a step)"));
         }
         for (i, ph) in t.scan.phase.iter().enumerate() {
             if ph.steps < 3 || ph.period_px.is_nan() || ph.period_px < 2.0 {

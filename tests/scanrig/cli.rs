@@ -1,7 +1,7 @@
 //! The `scanrig` command line, run as a user would in a temporary folder.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 /// A temporary working folder, removed when dropped.
 struct Dir(tempfile::TempDir);
@@ -20,13 +20,7 @@ impl Dir {
     }
 }
 
-fn scanrig(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_scanrig"));
-    for a in args {
-        cmd.arg(a);
-    }
-    cmd.output().unwrap()
-}
+use crate::run::scanrig;
 
 /// `scanrig sim` calibration captures of the 9x6 board with 11 mm squares into `out`.
 fn sim_board(out: &Path, extra: &[&str]) -> Output {
@@ -424,20 +418,8 @@ fn register_corrects_views_placed_by_a_miscalibrated_turntable_axis() {
     let o = scanrig(&[&"register", &scan, &"--json"]);
     assert!(o.status.success(), "{}", stderr(&o));
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    let refined: Vec<rig::Isometry3> = json["poses"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| {
-            let rows: Vec<f64> = p["object_from_camera"]
-                .as_array()
-                .unwrap()
-                .iter()
-                .flat_map(|r| r.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()))
-                .collect();
-            nalgebra::try_convert::<_, rig::Isometry3>(nalgebra::Matrix4::from_row_slice(&rows)).unwrap()
-        })
-        .collect();
+    let refined: Vec<rig::Isometry3> =
+        json["poses"].as_array().unwrap().iter().map(crate::run::pose_from_json).collect();
     let from_rig: Vec<rig::Isometry3> = (0..6).map(|v| axis.object_from_camera(v as f64 * 60.0)).collect();
     let (mut before, mut after) = (0.0f64, 0.0f64);
     for k in 1..6 {
@@ -449,6 +431,12 @@ fn register_corrects_views_placed_by_a_miscalibrated_turntable_axis() {
     );
     assert!(after < 0.25 * before && after < 0.2, "before {before}, after {after}");
     assert!(scan.join("processed/registered.ply").is_file() && scan.join("processed/registered.poses.json").is_file());
+    // Issue 19, defect 18: the whole pipeline on this ordinary scan stopped in remesh ("the system is
+    // singular"). It runs through, and its quads are there.
+    let o = scanrig(&[&"process", &scan, &"--no-denoise"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let quads = rig::read_mesh(&scan.join("processed/quads.obj")).unwrap();
+    assert!(quads.face_sizes().quads as f64 > 0.8 * quads.face_count() as f64, "{:?}", quads.face_sizes());
 }
 
 #[test]
@@ -489,7 +477,7 @@ fn reconstruct_meshes_an_oriented_cloud_and_refuses_one_without_normals() {
     assert!(stderr(&o).contains("bare.ply") && stderr(&o).contains("no normals"), "{}", stderr(&o));
     // A grid over the memory budget is refused before anything is allocated.
     let o = scanrig(&[&"reconstruct", &input, &"-o", &d.path("y.ply"), &"--depth", &"10", &"--memory-budget", &"1"]);
-    assert!(!o.status.success() && stderr(&o).contains("over the 1.0 GB budget"), "{}", stderr(&o));
+    assert!(!o.status.success() && stderr(&o).contains("over the 1.00 GB budget (--memory-budget)"), "{}", stderr(&o));
 }
 
 /// A closed box of `n × n` squares per side (each split into two triangles), side `size`, outward.
@@ -717,6 +705,19 @@ fn calibrate_all_on_a_structured_light_rig_and_the_yaml_import() {
     assert_eq!(rig::Rig::read(&back).unwrap().camera, got.camera);
     let o = scanrig(&[&"calibrate", &"import", &out, &"-o", &back]);
     assert!(!o.status.success() && stderr(&o).contains("rig.toml"), "{}", stderr(&o));
+
+    // Issue 19, defect 14: a --board that counts a sub-grid of the 9x6 board converges to a rig that
+    // cannot be right. It is refused, named, and not written (its report is); --force writes it.
+    let wrong = d.path("wrong.toml");
+    let o = scanrig(&[&"calibrate", &"all", &caps, &"-o", &wrong, &"--square", &"11", &"--board", &"8x6"]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("warning:") && err.contains("cannot be right"), "{err}");
+    assert!(!wrong.exists() && d.path("wrong.report.json").is_file(), "{err}");
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.path("wrong.report.json")).unwrap()).unwrap();
+    assert!(!report["warnings"].as_array().unwrap().is_empty(), "{report}");
+    let o = scanrig(&[&"calibrate", &"all", &caps, &"-o", &wrong, &"--square", &"11", &"--board", &"8x6", &"--force"]);
+    assert!(o.status.success() && stderr(&o).contains("warning:") && wrong.is_file(), "{}", stderr(&o));
 }
 
 /// Issue 5, acceptance 4: a rig from `calibrate all` on simulated captures keeps the demo's accuracy

@@ -3,10 +3,9 @@
 
 use fixtures::{BUNNY_SCANS, require};
 use std::collections::HashMap;
-use std::process::Command;
 
 fn info_json(path: &std::path::Path) -> serde_json::Value {
-    let out = Command::new(env!("CARGO_BIN_EXE_scanrig")).arg("info").arg(path).arg("--json").output().unwrap();
+    let out = crate::run::scanrig(&[&"info", &path, &"--json"]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     serde_json::from_slice(&out.stdout).unwrap()
 }

@@ -6,5 +6,6 @@ mod cli;
 mod data_files;
 #[cfg(feature = "projector-window")]
 mod projector_window;
+mod run;
 mod shared_demo;
 mod stages;

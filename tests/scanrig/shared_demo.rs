@@ -3,7 +3,7 @@
 //! takes a copy, so what one changes no other sees.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use std::sync::OnceLock;
 
 /// The demo's folder (`scan/`, `processed/`, `accuracy.json`) and what `demo` printed.
@@ -22,11 +22,7 @@ fn demo() -> &'static Demo {
         remove_stale(scratch);
         let dir = scratch.join(format!("shared-demo-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let o: Output = Command::new(env!("CARGO_BIN_EXE_scanrig"))
-            .args(["demo", "--views", "2", "--out"])
-            .arg(&dir)
-            .output()
-            .unwrap();
+        let o: Output = crate::run::scanrig(&[&"demo", &"--views", &"2", &"--out", &dir]);
         assert!(o.status.success(), "the shared demo failed: {}", String::from_utf8_lossy(&o.stderr));
         Demo { dir, stdout: String::from_utf8_lossy(&o.stdout).into_owned() }
     })

@@ -4,6 +4,7 @@
 //! arguments, shows progress and writes the files.
 
 pub mod captures;
+pub mod plausible;
 mod steps;
 
 pub use captures::{Orientation, Position, load};
@@ -186,7 +187,9 @@ pub struct RigCalibParams {
 }
 
 /// The report: one JSON object with a section per step that ran (`camera`, `turntable`, `lasers`,
-/// `projector`), `not_found` (images without the board, and why) and `board_found`.
+/// `projector`), `not_found` (images without the board, and why), `board_found`, `skipped` (steps
+/// the captures were taken for but could not serve, and why) and `warnings` (the
+/// [`plausible::findings`]: figures no working rig gives).
 pub type CalibReport = serde_json::Map<String, Value>;
 
 /// A rig of just a camera, for a rig file that does not exist yet.
@@ -275,6 +278,17 @@ pub fn calibrate_rig(
     rig.camera = camera;
 
     let on_turntable = found.iter().filter(|f| f.position.angle_deg.is_some()).count();
+    let captured_on_turntable = positions.iter().filter(|p| p.angle_deg.is_some()).count();
+    let mut skipped = Vec::new();
+    if params.target == Target::All && on_turntable < 3 && captured_on_turntable > 0 {
+        // Turntable captures were taken, so the axis was wanted: say why there is none.
+        skipped.push(json!({
+            "step": "turntable",
+            "why": format!(
+                "the board was found in {on_turntable} of the {captured_on_turntable} turntable views; the axis needs 3"
+            ),
+        }));
+    }
     let mut sweep_poses = vec![None; found.len()];
     if params.target == Target::Only(Step::Turntable) || (params.target == Target::All && on_turntable >= 3) {
         let height = params.corner_height_mm.unwrap_or(2.0 * square_mm);
@@ -312,6 +326,8 @@ pub fn calibrate_rig(
         missed.iter().map(|(f, why)| json!({"image": f, "why": why})).collect::<Vec<_>>().into(),
     );
     report.insert("board_found".into(), json!({"found": found.len(), "of": positions.len()}));
+    report.insert("skipped".into(), Value::Array(skipped));
+    report.insert("warnings".into(), plausible::findings(&rig, &report).into());
     Ok((rig, report))
 }
 

@@ -19,8 +19,8 @@ pub use report::{GridReport, LaserViewReport, ProcessReport, REPORT_SCHEMA_VERSI
 pub use run::{process_scan, register_processed};
 
 use crate::laser_line::LaserParams;
-use crate::multiview::MultiViewParams;
 use crate::placement::CropParams;
+use crate::register_scan::RegisterParams;
 use crate::remesh::RemeshParams;
 use crate::structured_light::DecodeParams;
 use crate::triangulate::TriangulateParams;
@@ -106,7 +106,7 @@ pub struct ProcessParams {
     /// The object cylinder; a `None` radius takes the rig's platter radius.
     pub crop: CropParams,
     /// Multi-view registration.
-    pub register: MultiViewParams,
+    pub register: RegisterParams,
     /// Mean-shift fusion.
     pub fuse: FuseParams,
     /// Reconstruction.
@@ -116,6 +116,9 @@ pub struct ProcessParams {
     /// The last stage to run.
     pub until: Stage,
     /// Redo stages whose outputs are current.
+    pub redo: bool,
+    /// Go on past results that cannot be right (a registration correction beyond the tolerance),
+    /// with a warning, instead of failing.
     pub force: bool,
 }
 
@@ -128,11 +131,12 @@ impl Default for ProcessParams {
             normal_max_jump_mm: 2.0,
             denoise: Some(DenoiseStage::default()),
             crop: CropParams::default(),
-            register: MultiViewParams::default(),
+            register: RegisterParams::default(),
             fuse: FuseParams::default(),
             reconstruct: ReconstructParams::default(),
             remesh: RemeshParams::default(),
             until: Stage::Remesh,
+            redo: false,
             force: false,
         }
     }

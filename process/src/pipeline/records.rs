@@ -171,26 +171,26 @@ pub struct Records {
     path: PathBuf,
     out: PathBuf,
     file: RecordsFile,
-    force: bool,
+    redo: bool,
 }
 
 impl Records {
     /// Reads the records of the output folder `out` (none yet, or unreadable, is an empty set: every
-    /// stage then runs). `force` makes every decision [`Decision::Run`].
-    pub fn open(out: &Path, force: bool) -> Records {
+    /// stage then runs). `redo` makes every decision [`Decision::Run`].
+    pub fn open(out: &Path, redo: bool) -> Records {
         let path = out.join(RECORDS_NAME);
         let file = std::fs::read(&path)
             .ok()
             .and_then(|b| serde_json::from_slice::<RecordsFile>(&b).ok())
             .filter(|f| f.format == RECORDS_FORMAT)
             .unwrap_or(RecordsFile { format: RECORDS_FORMAT, outputs: BTreeMap::new() });
-        Records { path, out: out.to_path_buf(), file, force }
+        Records { path, out: out.to_path_buf(), file, redo }
     }
 
     /// Whether `name` (relative to the output folder) can be reused for `now`.
     pub fn decide(&self, name: &str, now: &Fingerprint) -> Decision {
-        if self.force {
-            return Decision::Run("--force".into());
+        if self.redo {
+            return Decision::Run("--redo".into());
         }
         let Some(record) = self.file.outputs.get(name) else {
             return Decision::Run(if self.out.join(name).exists() {
@@ -268,7 +268,7 @@ mod tests {
             Decision::Run(why) => panic!("{why}"),
         }
         assert_eq!(r.decide("mesh.ply", &Fingerprint::new(json!({"depth": 9}))).reason(), Some("depth changed"));
-        assert_eq!(Records::open(dir, true).decide("mesh.ply", &fp).reason(), Some("--force"));
+        assert_eq!(Records::open(dir, true).decide("mesh.ply", &fp).reason(), Some("--redo"));
         std::fs::write(dir.join("mesh.ply"), b"edited").unwrap();
         assert_eq!(r.decide("mesh.ply", &fp).reason(), Some("the file was changed since it was written"));
     }

@@ -148,7 +148,7 @@ pub fn process_scan(
     layout.create()?;
     let lock = Lock::acquire(out)?;
     let mut o =
-        Out { layout, records: Records::open(out, params.force), opts: WriteOptions::default().with_units("mm") };
+        Out { layout, records: Records::open(out, params.redo), opts: WriteOptions::default().with_units("mm") };
     let old_report: Option<ProcessReport> = std::fs::read(o.path(layout::REPORT))
         .ok()
         .and_then(|b| serde_json::from_slice::<ProcessReport>(&b).ok())
@@ -456,7 +456,9 @@ fn scan_stages(
                 };
                 match &decision {
                     Decision::Reuse(rec) => {
-                        report.register = Some(section(&decision, 0.0, recorded(&rec.report)));
+                        let rr: stages::RegisterReport = recorded(&rec.report);
+                        report.warnings.extend(register_check(&rr, params)?);
+                        report.register = Some(section(&decision, 0.0, rr));
                         (cloud_hash, cloud) = (rec.hash, None);
                     }
                     Decision::Run(_) => {
@@ -464,6 +466,9 @@ fn scan_stages(
                         let (registered, poses, rr) =
                             stages::register(&view_grids(&outputs), axis, crop, &params.register)
                                 .map_err(|source| Error::Stage { stage: Stage::Register, source })?;
+                        // Checked before anything is written: an unforced implausible registration
+                        // leaves the folder as the merge left it.
+                        report.warnings.extend(register_check(&rr, params)?);
                         let (registered, hash) = o.put_cloud(layout::REGISTERED, &registered, fp.clone(), &rr)?;
                         o.put(layout::POSES, &stages::poses_json(&poses), fp, &rr)?;
                         report.register = Some(section(&decision, t.elapsed().as_secs_f64(), rr));
@@ -535,10 +540,22 @@ fn scan_stages(
             };
             let (mesh, rr) = stages::reconstruct(&input, &params.reconstruct)
                 .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
+            // Checked before the mesh is written: unforced, an unsupported mesh leaves no mesh.ply.
+            let support = stages::check_support(&mesh, &input, params.force)
+                .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
+            report.warnings.extend(support);
             let bytes = rig::ply::mesh_to_bytes(&mesh.to_poly(), &o.opts);
             let hash = o.put(layout::MESH, &bytes, fp, &rr)?;
             let back = rig::ply::parse(&bytes).and_then(|p| rig::ply::mesh_from_ply(&p));
             let back = back.map_err(|e| e.with_path(&o.path(layout::MESH)))?.triangulate();
+            if let stages::ReconstructReport::Adfft(a) = &rr
+                && a.self_intersections.remaining > 0
+            {
+                report.warnings.push(format!(
+                    "mesh.ply still intersects itself in {} triangle pairs after repair; slicers may refuse it",
+                    a.self_intersections.remaining
+                ));
+            }
             report.reconstruct = Some(section(&decision, t.elapsed().as_secs_f64(), rr));
             (hash, Some(back))
         }
@@ -572,6 +589,11 @@ fn scan_stages(
     Ok(())
 }
 
+/// The plausibility check of a registration (run or reused), as a pipeline error.
+fn register_check(rr: &stages::RegisterReport, params: &ProcessParams) -> Result<Vec<String>, Error> {
+    rr.check(&params.register.tolerance, params.force).map_err(|source| Error::Stage { stage: Stage::Register, source })
+}
+
 /// `scanrig register`: the views of a processed scan (their denoised grids where the folder has them)
 /// registered from their turntable poses exactly as `process` registers them. Returns the cloud,
 /// the poses and the report.
@@ -579,7 +601,7 @@ pub fn register_processed(
     scan: &Path,
     processed: &Path,
     crop: &CropParams,
-    params: &crate::multiview::MultiViewParams,
+    params: &crate::register_scan::RegisterParams,
 ) -> Result<(PointCloud, Vec<ViewPose>, stages::RegisterReport), Error> {
     let manifest = Manifest::read(scan)?;
     let rig_path = Manifest::inside(scan, &manifest.rig, "rig")?;

@@ -8,11 +8,11 @@ use crate::denoise::{DenoiseError, DenoiseParams, DenoiseReport};
 use crate::grid_normals::estimate_normals;
 use crate::icp::IcpError;
 use crate::mean_shift::{MeanShiftParams, MeanShiftReport};
-use crate::multiview::{MultiViewParams, MultiViewReport};
+use crate::multiview::MultiViewReport;
 use crate::placement::{CropParams, place_view};
 use crate::reconstruct::adfft::{AdFftParams, AdFftReport, reconstruct_adfft};
 use crate::reconstruct::global_fft::{FftParams, FftReport, ReconstructError, reconstruct_fft};
-use crate::register_scan::{ViewPose, register_grids};
+use crate::register_scan::{Refused, RegisterParams, Tolerance, ViewPose, register_grids};
 use crate::remesh::{RemeshError, RemeshParams, RemeshReport};
 use rig::math::{Isometry3, Point3, Real, Vector3};
 use rig::{PointCloud, PolyMesh, RangeGrid, TriMesh, TurntableAxis};
@@ -54,6 +54,17 @@ pub enum StageError {
         /// The point.
         index: usize,
     },
+    /// Normals of zero length: they face no side.
+    #[error(
+        "point {index} of the cloud has a zero normal ({count} such points): a normal without a side cannot \
+         say where the outside is; drop the cloud's normals (fusion then estimates and orients them) or fix them"
+    )]
+    ZeroNormal {
+        /// The first such point.
+        index: usize,
+        /// How many.
+        count: usize,
+    },
     /// The reconstruction found no surface.
     #[error(
         "the reconstruction found no surface in {points} points: the normals may point inward, or the cloud \
@@ -87,6 +98,14 @@ pub enum StageError {
     /// Pairwise registration failed.
     #[error("registration: {0}")]
     Icp(#[from] IcpError),
+    /// A result that cannot be right: refused unless forced.
+    #[error("{what}; {hint}")]
+    Implausible {
+        /// What is wrong, with the figures.
+        what: String,
+        /// What may cause it and what the user can do.
+        hint: String,
+    },
     /// The cloud cannot be meshed.
     #[error(transparent)]
     Reconstruct(#[from] ReconstructError),
@@ -248,17 +267,46 @@ pub struct RegisterReport {
     pub points: usize,
     /// Points given a PCA normal ([`fill_normals`]).
     pub sensor_normals: usize,
+    /// Corrections beyond the tolerance, not applied (those views keep their turntable poses).
+    #[serde(default)]
+    pub refused: Vec<Refused>,
     /// The multi-view refinement's rounds.
     pub refinement: MultiViewReport,
 }
 
+impl RegisterReport {
+    /// The plausibility check: with refused corrections, an error unless `force`, else one warning
+    /// per refused view.
+    pub fn check(&self, tolerance: &Tolerance, force: bool) -> Result<Vec<String>, StageError> {
+        let Some(first) = self.refused.first() else { return Ok(Vec::new()) };
+        let limit = format!(
+            "beyond the {}° and {} mm a turntable can be off (--max-correction-deg, --max-correction-mm)",
+            tolerance.rotation_deg, tolerance.shift_mm
+        );
+        if !force {
+            let others = match self.refused.len() {
+                1 => String::new(),
+                n => format!(" (and {} more views)", n - 1),
+            };
+            return Err(StageError::Implausible {
+                what: format!("{first}{others}, {limit}"),
+                hint: "the views may overlap too little (take more views), or the object look the same turned; \
+                       --force goes on with such views at their turntable poses"
+                    .into(),
+            });
+        }
+        Ok(self.refused.iter().map(|r| format!("{r}, {limit}: kept at its turntable pose (--force)")).collect())
+    }
+}
+
 /// Refines the views' poses from the turntable's by multi-view ICP (ch. 2.2) and merges them again,
-/// cropped like [`merge`]. Returns the registered cloud and every view's pose.
+/// cropped like [`merge`]. Returns the registered cloud and every view's pose; corrections beyond the
+/// tolerance are not applied but listed in the report ([`RegisterReport::check`] decides on them).
 pub fn register(
     views: &[ViewGrid],
     axis: &TurntableAxis,
     crop: &CropParams,
-    params: &MultiViewParams,
+    params: &RegisterParams,
 ) -> Result<(PointCloud, Vec<ViewPose>, RegisterReport), StageError> {
     if views.len() < 2 {
         return Err(StageError::TooFewViews(views.len()));
@@ -268,11 +316,17 @@ pub fn register(
     // The refined poses place the cameras too: the normals a point lacks turn toward its own.
     let centres = poses.iter().map(|p| (p.view as u32, Point3::from(p.translation_mm()))).collect();
     let sensor_normals = fill_normals(&mut cloud, &centres);
+    let applied = || poses.iter().filter(|p| !p.refused);
     let report = RegisterReport {
         sensor_normals,
         views: views.len(),
-        max_rotation_change_deg: poses.iter().map(|p| p.rotation_change_deg).fold(0.0, Real::max),
-        max_shift_mm: poses.iter().map(|p| p.shift_mm).fold(0.0, Real::max),
+        max_rotation_change_deg: applied().map(|p| p.rotation_change_deg).fold(0.0, Real::max),
+        max_shift_mm: applied().map(|p| p.shift_mm).fold(0.0, Real::max),
+        refused: poses
+            .iter()
+            .filter(|p| p.refused)
+            .map(|p| Refused { view: p.view, rotation_deg: p.rotation_change_deg, shift_mm: p.shift_mm })
+            .collect(),
         points: cloud.len(),
         refinement,
     };
@@ -420,14 +474,63 @@ pub fn reconstruct(cloud: &PointCloud, params: &ReconstructParams) -> Result<(Tr
     Ok((mesh, report))
 }
 
-/// Refuses a cloud with a NaN or infinite position or normal: every later distance would be NaN.
+/// The largest median distance from a mesh's vertices to its cloud, as a fraction of the cloud's
+/// bounding-box diagonal, that a reconstruction of the cloud can have. A mesh the data supports lies
+/// on its points (median 0.1–0.2 % of the diagonal on the simulated scans, where closing the holes a
+/// scan leaves puts a tenth or more of the vertices far from any point); a median of several per cent
+/// means most of the surface is made up — inconsistent normals (a laser scan's, 6.9 %) or a stray
+/// cluster.
+pub const MAX_MEDIAN_GAP: Real = 0.02;
+
+/// The plausibility check of a reconstruction: the median distance from the mesh's vertices
+/// (sampled, up to 20,000) to the nearest point of `cloud`. Beyond [`MAX_MEDIAN_GAP`] of the
+/// diagonal: an error unless `force`, else the warning to give.
+pub fn check_support(mesh: &TriMesh, cloud: &PointCloud, force: bool) -> Result<Option<String>, StageError> {
+    let Some(bounds) = cloud.bounding_box() else { return Ok(None) };
+    let diagonal = (bounds.max - bounds.min).norm();
+    let tree = crate::kd_tree::PointTree::new(&cloud.positions);
+    let step = mesh.vertices.len().div_ceil(20_000).max(1);
+    let mut gaps: Vec<Real> = mesh.vertices.iter().step_by(step).map(|v| tree.nearest(v).1.sqrt()).collect();
+    if gaps.is_empty() {
+        return Ok(None);
+    }
+    let mid = gaps.len() / 2;
+    let median = *gaps.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    if median <= MAX_MEDIAN_GAP * diagonal {
+        return Ok(None);
+    }
+    let what = format!(
+        "the mesh lies far from its cloud: half its vertices are more than {median:.2} mm from any point ({:.1} % of \
+         the cloud's {diagonal:.0} mm diagonal, over {} %)",
+        100.0 * median / diagonal,
+        100.0 * MAX_MEDIAN_GAP
+    );
+    if force {
+        return Ok(Some(format!("{what} (--force)")));
+    }
+    Err(StageError::Implausible {
+        what,
+        hint: "most of the surface is not in the data — normals that disagree, or a cluster of stray points; \
+               --force keeps it"
+            .into(),
+    })
+}
+
+/// Refuses a cloud with a NaN or infinite position or normal (every later distance would be NaN) or
+/// a zero normal.
 fn check_finite(cloud: &PointCloud) -> Result<(), StageError> {
     let bad_point = cloud.positions.iter().position(|p| !p.coords.iter().all(|x| x.is_finite()));
     let bad_normal = cloud.normals.as_ref().and_then(|n| n.iter().position(|v| !v.iter().all(|x| x.is_finite())));
-    match bad_point.into_iter().chain(bad_normal).min() {
-        Some(index) => Err(StageError::NonFinite { index }),
-        None => Ok(()),
+    if let Some(index) = bad_point.into_iter().chain(bad_normal).min() {
+        return Err(StageError::NonFinite { index });
     }
+    if let Some(n) = &cloud.normals {
+        let zero: Vec<usize> = (0..n.len()).filter(|&i| n[i].norm_squared() <= 1e-24).collect();
+        if let Some(&index) = zero.first() {
+            return Err(StageError::ZeroNormal { index, count: zero.len() });
+        }
+    }
+    Ok(())
 }
 
 /// A quad mesh of a triangle mesh (ch. 6).

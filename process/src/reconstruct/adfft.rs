@@ -70,6 +70,8 @@ pub struct AdFftParams {
     pub coarse_depth: u32,
     /// See `coarse_depth`.
     pub coarse_weight: Real,
+    /// Refuse reconstructions estimated to need more than this many bytes (default 8 GB).
+    pub memory_budget: u64,
 }
 
 impl Default for AdFftParams {
@@ -87,6 +89,7 @@ impl Default for AdFftParams {
             min_component: 0.01,
             coarse_depth: 6,
             coarse_weight: 0.15,
+            memory_budget: 8_000_000_000,
         }
     }
 }
@@ -98,6 +101,12 @@ pub struct AdFftReport {
     pub n: usize,
     /// Global grid spacing.
     pub cell: Real,
+    /// The memory the reconstruction was estimated to need before it started (bytes).
+    #[serde(default)]
+    pub estimated_bytes: u64,
+    /// Self-intersections where blended leaves folded the surface, and their repair.
+    #[serde(default)]
+    pub self_intersections: super::self_intersect::RepairReport,
     /// The error the subdivision aimed for.
     pub error: Real,
     /// Leaves solved (the patches blended), by octree depth.
@@ -284,6 +293,46 @@ struct Solved {
     weight: [Vec<f32>; 3],
 }
 
+/// The memory the sweep will hold at its peak, from the octree before anything is solved: the
+/// coarse grid, the solved leaves alive at once (the sweep's own bookkeeping, replayed on the support
+/// ranges), one local FFT grid per thread, the planes marching cubes keeps, and the samples.
+fn estimate_bytes(
+    leaves: &[Cell],
+    ranges: &[([usize; 3], [usize; 3])],
+    points: usize,
+    n: usize,
+    h: Real,
+    params: &AdFftParams,
+) -> u64 {
+    let mut events: Vec<(usize, i128)> = Vec::with_capacity(2 * ranges.len());
+    for (lo, hi) in ranges {
+        let values: u64 = (0..3).map(|d| (hi[d] - lo[d] + 1) as u64).product();
+        let bytes = (4 * (values + (hi[0] - lo[0] + hi[1] - lo[1] + hi[2] - lo[2] + 3) as u64)) as i128;
+        events.push((lo[2], bytes));
+        events.push((hi[2] + 1, -bytes));
+    }
+    // Leaves retire before those starting on the same plane are added: the sweep drops first.
+    events.sort_by_key(|&(k, b)| (k, b > 0));
+    let (mut live, mut peak) = (0i128, 0i128);
+    for (_, b) in events {
+        live += b;
+        peak = peak.max(live);
+    }
+    let local = leaves
+        .iter()
+        .map(|c| {
+            let local_n = ((2.0 * c.edge / h).round() as u64).max(4);
+            4 * local_n.pow(3) + 8 * (local_n / 2 + 1) * local_n * local_n
+        })
+        .max()
+        .unwrap_or(0);
+    let threads = rayon::current_num_threads() as u64;
+    let coarse = super::global_fft::grid_bytes(params.coarse_depth.min(params.depth));
+    let planes = 4 * 4 * (n as u64) * (n as u64);
+    let samples = 96 * points as u64;
+    coarse + peak.max(0) as u64 + threads * local + planes + samples
+}
+
 /// The global grid index range a leaf's support covers, clamped to the grid.
 fn support_range(cell: &Cell, scale: Real, origin: &Point3, h: Real, n: usize) -> ([usize; 3], [usize; 3]) {
     let half = scale * cell.edge / 2.0;
@@ -400,6 +449,10 @@ pub fn reconstruct_adfft(
         report.leaves_by_depth[l.depth as usize] += 1;
     }
     report.seconds_octree = start.elapsed().as_secs_f64();
+    let ranges: Vec<([usize; 3], [usize; 3])> =
+        leaves.iter().map(|c| support_range(c, params.scale, &origin, h, n)).collect();
+    report.estimated_bytes = estimate_bytes(&leaves, &ranges, cloud.len(), n, h, params);
+    super::global_fft::check_memory(report.estimated_bytes, n, params.memory_budget, "--method adfft")?;
 
     // A coarse global χ answers where no leaf reaches — the empty cells deep inside the object and far
     // outside — and outweighs a leaf in the fringe of its support, where the local solid closes itself
@@ -416,8 +469,6 @@ pub fn reconstruct_adfft(
     let eps = params.coarse_weight as f32;
 
     // The sweep: leaves ordered by where their support starts in z.
-    let ranges: Vec<([usize; 3], [usize; 3])> =
-        leaves.iter().map(|c| support_range(c, params.scale, &origin, h, n)).collect();
     let mut order: Vec<usize> = (0..leaves.len()).collect();
     order.sort_by_key(|&l| ranges[l].0[2]);
     let mut next_leaf = 0;
@@ -464,6 +515,7 @@ pub fn reconstruct_adfft(
     report.peak_active_leaves = peak_active;
     report.components_pruned = prune_small_components(&mut mesh, params.min_component)
         + super::prune::prune_components_away_from(&mut mesh, &samples.tree, 4.0 * h);
+    report.self_intersections = super::self_intersect::repair(&mut mesh, 8);
     report.seconds_extract = t.elapsed().as_secs_f64();
     report.vertices = mesh.vertices.len();
     report.triangles = mesh.faces.len();

@@ -87,7 +87,9 @@ pub enum ReconstructError {
     #[error("the cloud has no normals: reconstruction needs oriented points (run `scanrig fuse` first)")]
     NoNormals,
     /// The grid would not fit the memory budget.
-    #[error("a {n}³ grid needs {need:.1} GB, over the {budget:.1} GB budget: lower the depth or use --method adfft")]
+    #[error(
+        "a {n}³ grid needs {need:.2} GB, over the {budget:.2} GB budget (--memory-budget): lower --depth, or use --method adfft"
+    )]
     TooLarge {
         /// Grid size.
         n: usize,
@@ -99,6 +101,20 @@ pub enum ReconstructError {
     /// A parameter is out of range.
     #[error("{0}")]
     Params(String),
+    /// The reconstruction needs more memory than the machine has.
+    #[error(transparent)]
+    Memory(#[from] rig::memory::TooLarge),
+}
+
+/// Refuses a reconstruction estimated at `need` bytes over `budget` or over what the machine has;
+/// `method` names it for the message.
+pub fn check_memory(need: u64, n: usize, budget: u64, method: &str) -> Result<(), ReconstructError> {
+    if need > budget {
+        return Err(ReconstructError::TooLarge { n, need: need as f64 / 1e9, budget: budget as f64 / 1e9 });
+    }
+    let what = format!("reconstruction on a {n}³ grid ({method})");
+    rig::memory::check(Some(need), &what, "lower --depth")?;
+    Ok(())
 }
 
 /// Bytes the global method needs at depth `depth`.
@@ -277,13 +293,7 @@ pub fn reconstruct_fft(cloud: &PointCloud, params: &FftParams) -> Result<(TriMes
     }
     let need = grid_bytes(params.depth);
     let n = 1usize << params.depth;
-    if need > params.memory_budget {
-        return Err(ReconstructError::TooLarge {
-            n,
-            need: need as f64 / 1e9,
-            budget: params.memory_budget as f64 / 1e9,
-        });
-    }
+    check_memory(need, n, params.memory_budget, "--method fft")?;
     let (origin, size) = bounding_cube(&cloud.positions, params.padding);
     let cell = size / n as Real;
     let mut report = FftReport { n, cell, grid_bytes: need, ..Default::default() };

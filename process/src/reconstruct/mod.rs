@@ -10,3 +10,4 @@ pub mod marching_cubes;
 /// The accuracy metric, kept here under its old path.
 pub use crate::mesh_distance;
 pub mod prune;
+pub mod self_intersect;

@@ -73,6 +73,19 @@ impl Default for IcpParams {
     }
 }
 
+/// A Gaussian prior on how far the true pose lies from a known one (the turntable's): the standard
+/// deviations of its rotation and translation. With it, ICP minimises the point-to-plane residuals
+/// plus the prior's penalty (a MAP estimate) — which changes nothing where the surface fixes the pose,
+/// and keeps a view where its turntable put it along directions the surface leaves free: a turned,
+/// nearly symmetric object, or two views that overlap little, would otherwise slide to a wrong pose.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PosePrior {
+    /// Standard deviation of the rotation (degrees).
+    pub rotation_deg: Real,
+    /// Standard deviation of the translation (data units).
+    pub shift: Real,
+}
+
 /// What a registration did.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, serde::Deserialize)]
 pub struct IcpReport {
@@ -126,6 +139,18 @@ pub fn icp(
     initial: &Isometry3,
     params: &IcpParams,
 ) -> Result<(Isometry3, IcpReport), IcpError> {
+    icp_near(moving, moving_normals, target, initial, None, params)
+}
+
+/// [`icp`] with a prior: `prior` is the known pose and how far the truth may be from it.
+pub fn icp_near(
+    moving: &[Point3],
+    moving_normals: &[Vector3],
+    target: &IcpTarget,
+    initial: &Isometry3,
+    prior: Option<(&Isometry3, PosePrior)>,
+    params: &IcpParams,
+) -> Result<(Isometry3, IcpReport), IcpError> {
     if moving.len() != moving_normals.len() {
         return Err(IcpError::LengthMismatch { points: moving.len(), normals: moving_normals.len() });
     }
@@ -167,6 +192,21 @@ pub fn icp(
         report.final_distance = distance;
         if found < 6 {
             return Err(IcpError::TooFewCorrespondences { found, distance, iteration });
+        }
+        if let Some((known, p)) = prior {
+            // The correction c = (θ, τ) from the known pose, penalised by λ|c + x|² with
+            // λ = (residual scale / prior deviation)² so both terms are in squared data units; to first
+            // order the step x adds to c (the step is applied on the left, in the target frame).
+            let c = pose * known.inverse();
+            let scale = params.min_distance * params.min_distance;
+            let (l_rot, l_t) = (scale / p.rotation_deg.to_radians().powi(2), scale / (p.shift * p.shift));
+            let (theta, tau) = (c.rotation.scaled_axis(), c.translation.vector);
+            for i in 0..3 {
+                a[(i, i)] += l_rot;
+                b[i] -= l_rot * theta[i];
+                a[(i + 3, i + 3)] += l_t;
+                b[i + 3] -= l_t * tau[i];
+            }
         }
         let x = a.cholesky().ok_or(IcpError::Degenerate)?.solve(&b);
         let (omega, t) = (Vector3::new(x[0], x[1], x[2]), Vector3::new(x[3], x[4], x[5]));

@@ -4,7 +4,7 @@
 //! into a wrong pose together). Then every view is refined in turn against the union of all the others,
 //! for a few rounds — closing the 360° loop so that error does not accumulate along a chain.
 
-use crate::icp::{IcpError, IcpParams, IcpReport, IcpTarget, icp};
+use crate::icp::{IcpError, IcpParams, IcpReport, IcpTarget, PosePrior, icp_near};
 use rig::math::{Isometry3, Point3, Real, Vector3};
 use serde::Serialize;
 
@@ -30,11 +30,21 @@ pub struct MultiViewParams {
     pub anchor: usize,
     /// Points taken from each other view into a target union (evenly strided), keeping the k-d tree small.
     pub target_points_per_view: usize,
+    /// How far a view's true pose may lie from its starting (turntable) pose, held as a prior on
+    /// every registration of the view (`None`: none, the starting poses are only starts).
+    pub prior: Option<PosePrior>,
 }
 
 impl Default for MultiViewParams {
     fn default() -> Self {
-        MultiViewParams { icp: IcpParams::default(), rounds: 3, anchor: 0, target_points_per_view: 8000 }
+        MultiViewParams {
+            icp: IcpParams::default(),
+            rounds: 3,
+            anchor: 0,
+            target_points_per_view: 8000,
+            // A turntable's step error and a calibrated axis are good to about a degree and a few mm.
+            prior: Some(PosePrior { rotation_deg: 2.0, shift: 5.0 }),
+        }
     }
 }
 
@@ -96,7 +106,8 @@ pub fn refine_views(
     placed[params.anchor] = true;
     for &v in order.unwrap_or(&default_order) {
         let target = union_target(views, &poses, |u| placed[u], params.target_points_per_view);
-        poses[v] = icp(&views[v].points, &views[v].normals, &target, &poses[v], &params.icp)?.0;
+        let prior = params.prior.map(|p| (&initial[v], p));
+        poses[v] = icp_near(&views[v].points, &views[v].normals, &target, &poses[v], prior, &params.icp)?.0;
         placed[v] = true;
     }
     let mut report = MultiViewReport { views: vec![IcpReport::default(); views.len()], ..Default::default() };
@@ -113,7 +124,8 @@ pub fn refine_views(
                 continue;
             }
             let target = union_target(views, &poses, |u| u != v, params.target_points_per_view);
-            let (pose, r) = icp(&views[v].points, &views[v].normals, &target, &poses[v], &params.icp)?;
+            let prior = params.prior.map(|p| (&initial[v], p));
+            let (pose, r) = icp_near(&views[v].points, &views[v].normals, &target, &poses[v], prior, &params.icp)?;
             max_rot = max_rot.max((pose.rotation.inverse() * poses[v].rotation).angle().to_degrees());
             max_shift = max_shift.max((pose * centroids[v] - poses[v] * centroids[v]).norm());
             poses[v] = pose;

@@ -10,6 +10,54 @@ use rig::math::{Isometry3, Real};
 use rig::{PointCloud, RangeGrid, TurntableAxis};
 use serde::Serialize;
 
+/// The most a registration may move a view from its turntable pose. A turntable that steps and a
+/// calibrated axis are off by a degree or two and a few millimetres; a correction far beyond that is
+/// not a better pose but a registration gone wrong (a symmetric object slid round, two views that
+/// barely overlap), and is refused: the view keeps its turntable pose.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Tolerance {
+    /// Largest rotation (degrees).
+    pub rotation_deg: Real,
+    /// Largest movement of the view's centroid (mm).
+    pub shift_mm: Real,
+}
+
+impl Default for Tolerance {
+    fn default() -> Self {
+        Tolerance { rotation_deg: 5.0, shift_mm: 10.0 }
+    }
+}
+
+/// Registration's settings: the multi-view refinement and the tolerance on its corrections.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct RegisterParams {
+    /// The refinement.
+    pub refine: MultiViewParams,
+    /// The corrections accepted.
+    pub tolerance: Tolerance,
+}
+
+/// A correction beyond the [`Tolerance`], not applied.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+pub struct Refused {
+    /// The view.
+    pub view: usize,
+    /// The rotation registration found (degrees).
+    pub rotation_deg: Real,
+    /// The centroid's movement it found (mm).
+    pub shift_mm: Real,
+}
+
+impl std::fmt::Display for Refused {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "registration would turn view {} by {:.1}° and move it {:.1} mm from its turntable pose",
+            self.view, self.rotation_deg, self.shift_mm
+        )
+    }
+}
+
 /// One view's refined pose and how far it moved from the turntable's.
 #[derive(Debug, Clone, Serialize)]
 pub struct ViewPose {
@@ -23,6 +71,9 @@ pub struct ViewPose {
     pub rotation_change_deg: Real,
     /// Movement of the view's centroid between the two poses (mm).
     pub shift_mm: Real,
+    /// The correction registration found was beyond the tolerance: the view keeps its turntable
+    /// pose, and the two figures above are the refused correction's.
+    pub refused: bool,
 }
 
 /// A grid's valid cells as a view: points, unit normals (grid normals, estimated if absent) and the
@@ -60,30 +111,38 @@ impl ViewPose {
 }
 
 /// Refines the poses of views from their turntable poses by multi-view ICP and merges them again,
-/// cropped like the pipeline's merge. `grids` are (view index, turntable angle, range grid); at least
-/// two (see [`crate::pipeline::stages::register`]). Returns the registered cloud, every view's pose and the registration's report.
+/// cropped like the pipeline's merge; a view whose correction is beyond the tolerance keeps its
+/// turntable pose (marked `refused`). `grids` are (view index, turntable angle, range grid); at least
+/// two (see [`crate::pipeline::stages::register`]). Returns the registered cloud, every view's pose
+/// and the registration's report.
 pub fn register_grids(
     grids: &[(usize, Real, &RangeGrid)],
     axis: &TurntableAxis,
     crop: &CropParams,
-    params: &MultiViewParams,
+    params: &RegisterParams,
 ) -> Result<(PointCloud, Vec<ViewPose>, MultiViewReport), IcpError> {
     let views: Vec<View> = grids.iter().map(|(_, _, g)| view_of((*g).clone())).collect();
     let initial: Vec<Isometry3> = grids.iter().map(|&(_, a, _)| axis.object_from_camera(a)).collect();
-    let (poses, report) = refine_views(&views, &initial, None, params)?;
+    let (poses, report) = refine_views(&views, &initial, None, &params.refine)?;
     let mut clouds = Vec::new();
     let mut view_poses = Vec::new();
     for (k, &(v, angle, grid)) in grids.iter().enumerate() {
-        clouds.push(place_view(grid, &poses[k], crop, v as u32));
         let n = views[k].points.len().max(1) as Real;
         let c = rig::Point3::from(views[k].points.iter().fold(rig::Vector3::zeros(), |a, p| a + p.coords) / n);
-        let m = poses[k].to_homogeneous();
+        let rotation_change_deg = (poses[k].rotation.inverse() * initial[k].rotation).angle().to_degrees();
+        let shift_mm = (poses[k] * c - initial[k] * c).norm();
+        // NaN counts as beyond: a pose that is not a number is no correction.
+        let refused = !(rotation_change_deg <= params.tolerance.rotation_deg && shift_mm <= params.tolerance.shift_mm);
+        let pose = if refused { initial[k] } else { poses[k] };
+        clouds.push(place_view(grid, &pose, crop, v as u32));
+        let m = pose.to_homogeneous();
         view_poses.push(ViewPose {
             view: v,
             angle_deg: angle,
             object_from_camera: std::array::from_fn(|r| std::array::from_fn(|col| m[(r, col)])),
-            rotation_change_deg: (poses[k].rotation.inverse() * initial[k].rotation).angle().to_degrees(),
-            shift_mm: (poses[k] * c - initial[k] * c).norm(),
+            rotation_change_deg,
+            shift_mm,
+            refused,
         });
     }
     Ok((merge(clouds), view_poses, report))

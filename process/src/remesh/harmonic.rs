@@ -153,9 +153,17 @@ pub fn field_with_rows(
     }
     let matrix = SparseColMat::<usize, Real>::try_new_from_triplets(free, free, &triplets)
         .map_err(|e| FieldError::Singular(format!("{e:?}")))?;
-    let llt = matrix.sp_cholesky(Side::Lower).map_err(|e| FieldError::Singular(format!("{e:?}")))?;
     let mut b = Mat::<Real>::from_fn(free, 1, |i, _| rhs[i]);
-    llt.solve_in_place(b.as_mut());
+    match matrix.sp_cholesky(Side::Lower) {
+        Ok(llt) => llt.solve_in_place(b.as_mut()),
+        // The system is symmetric positive definite in exact arithmetic, but the cotangent weights of
+        // near-degenerate triangles (slivers marching cubes leaves) reach 1e10 and rounding can leave
+        // a pivot ≤ 0: LU with pivoting solves what is still regular.
+        Err(chol) => {
+            let lu = matrix.sp_lu().map_err(|e| FieldError::Singular(format!("{chol:?}; LU: {e:?}")))?;
+            lu.solve_in_place(b.as_mut());
+        }
+    }
     for v in 0..n {
         if !is_fixed[v] {
             value[v] = b[(unknown[v], 0)];

@@ -427,10 +427,16 @@ fn split_at_turns(mesh: &TriMesh, path: &[usize], max_turn_deg: Real) -> Vec<Vec
 /// singularity, and on a crease its fan of lines would cut the crease's corner.
 fn poles(mesh: &TriMesh, constrained: &[usize], clearance: Real) -> Vec<(usize, Real)> {
     let neighbours = vertex_neighbours(mesh);
+    // Parts as the field's equations see them: a face without area carries no flux, so two pieces
+    // joined only through such faces are two parts, and each needs its own poles (else the system is
+    // singular there).
     let mut parts = UnionFind::new(mesh.vertices.len());
     for f in &mesh.faces {
-        parts.union(f[0] as usize, f[1] as usize);
-        parts.union(f[1] as usize, f[2] as usize);
+        let p = f.map(|i| mesh.vertices[i as usize]);
+        if (p[1] - p[0]).cross(&(p[2] - p[0])).norm() > 0.0 {
+            parts.union(f[0] as usize, f[1] as usize);
+            parts.union(f[1] as usize, f[2] as usize);
+        }
     }
     let (to_line, _) = edge_distances_from(mesh, &neighbours, constrained);
     let mut done: HashSet<usize> = HashSet::new();

@@ -149,11 +149,12 @@ fn bunny_scans_reconstruct_close_to_the_zipper_mesh() {
             let p = AdFftParams { depth, ..Default::default() };
             let (m, r) = reconstruct_adfft(&cloud, &p).unwrap();
             let detail = format!(
-                "{} patches by depth {:?}, {} tests, ≤ {} in memory",
+                "{} patches by depth {:?}, {} tests, ≤ {} in memory; self-intersections {:?}",
                 r.leaves(),
                 r.leaves_by_depth,
                 r.tests,
-                r.peak_active_leaves
+                r.peak_active_leaves,
+                r.self_intersections
             );
             (m, r.cell, detail)
         } else {
@@ -161,6 +162,14 @@ fn bunny_scans_reconstruct_close_to_the_zipper_mesh() {
             (m, r.cell, String::new())
         };
         let seconds = start.elapsed().as_secs_f64();
+        // Issue 19, defect 17: Open3D found 10 intersecting pairs in AdFFT 256³ of this cloud.
+        let crossing = process::reconstruct::self_intersect::intersecting_pairs(&mesh);
+        assert!(
+            crossing.is_empty(),
+            "{method} {}³ intersects itself: {:?}",
+            1 << depth,
+            &crossing[..crossing.len().min(5)]
+        );
         let t = topology(&mesh);
         let ((am, a95), (cm, c95)) = accuracy_completeness(&mesh, &input, &zipper);
         eprintln!(

@@ -64,12 +64,17 @@ pub fn cloud_from_ply(ply: &PlyFile) -> Result<PointCloud, ParseError> {
     })
 }
 
-/// Checks a vertex index and converts it.
+/// Checks a vertex index and converts it: a whole number (a float list type may hold 1.5 or NaN,
+/// which would otherwise be cut to an index silently) within the vertices.
 fn index(el: &Element, entry: usize, raw: f64, count: usize) -> Result<u32, ParseError> {
-    if raw >= 0.0 && (raw as usize) < count {
+    if raw.fract() != 0.0 || !raw.is_finite() {
+        return Err(ParseError::new(at(el, entry), Problem::FractionalIndex(raw.to_string())));
+    }
+    if raw >= 0.0 && raw < count as f64 {
         Ok(raw as u32)
     } else {
-        Err(ParseError::new(at(el, entry), Problem::IndexOutOfRange { index: raw as i64, count }))
+        let index = raw.to_string().into();
+        Err(ParseError::new(at(el, entry), Problem::IndexOutOfRange { index, what: "vertex", count, first: 0 }))
     }
 }
 

@@ -175,19 +175,19 @@ pub fn cloud_to_bytes(cloud: &PointCloud, opts: &WriteOptions) -> Vec<u8> {
 
 /// A polygon mesh as PLY bytes: vertices (with normals where present), faces as
 /// `list uchar int vertex_indices` (quads as 4-lists). A face with more than 255 corners does not fit a
-/// `uchar` count, so such a mesh is written as a fan of triangles.
+/// `uchar` count; such a mesh gets a `ushort` (or `uint`) count, which PLY readers take as well, so
+/// every polygon is written as it is.
 pub fn mesh_to_bytes(mesh: &PolyMesh, opts: &WriteOptions) -> Vec<u8> {
     let t = real(opts);
-    let fan;
-    let mesh = if mesh.faces().any(|f| f.len() > 255) {
-        fan = mesh.triangulate().to_poly();
-        &fan
-    } else {
-        mesh
+    let largest = mesh.faces().map(|f| f.len()).max().unwrap_or(0);
+    let (count_type, count_name) = match largest {
+        0..=255 => (ScalarType::U8, "uchar"),
+        256..=65_535 => (ScalarType::U16, "ushort"),
+        _ => (ScalarType::U32, "uint"),
     };
     let elements = [
         ("vertex", mesh.vertices.len(), vertex_props(opts, mesh.normals.is_some())),
-        ("face", mesh.face_count(), vec!["list uchar int vertex_indices".to_string()]),
+        ("face", mesh.face_count(), vec![format!("list {count_name} int vertex_indices")]),
     ];
     let mut body = Body { out: header(opts, &elements), encoding: opts.encoding, first_on_line: true };
     for (i, p) in mesh.vertices.iter().enumerate() {
@@ -195,7 +195,7 @@ pub fn mesh_to_bytes(mesh: &PolyMesh, opts: &WriteOptions) -> Vec<u8> {
         body.end_entry();
     }
     for f in mesh.faces() {
-        body.value(ScalarType::U8, f.len() as f64);
+        body.value(count_type, f.len() as f64);
         f.iter().for_each(|&v| body.value(ScalarType::I32, v as f64));
         body.end_entry();
     }

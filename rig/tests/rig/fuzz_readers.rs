@@ -31,6 +31,7 @@ fn read_everything(bytes: &[u8]) {
     let _ = rig::image::decode_png(bytes);
     let _ = rig::image::decode_jpeg(bytes);
     let _ = rig::Manifest::from_json(bytes);
+    let _ = rig::scan_folder::parse_progress(bytes, 8);
     let _ = rig::remesh_inputs::parse_constraints(bytes);
     let _ = rig::remesh_inputs::parse_face_values(bytes, 3);
 }
@@ -110,6 +111,7 @@ cy_px = 240.0\ndistortion = [0.1, 0.0, 0.0, 0.0, 0.0]\n[[lasers]]\nname = \"l\"\
     out.push(serde_json::to_vec_pretty(&manifest).unwrap());
     out.push(b"# remesh constraints\n12 45 78 90\np 0.0 1.0 2.0  0.5 1.2 2.1\n".to_vec());
     out.push(b"1.0 0.5\n# insulator\n0\n".to_vec());
+    out.push(b"0\n3\n7\n2".to_vec());
     out
 }
 
@@ -234,7 +236,8 @@ fn mutated_files_never_panic() {
             || rig::image::decode_png(s).is_ok()
             || rig::Manifest::from_json(s).is_ok()
             || rig::remesh_inputs::parse_constraints(s).is_ok_and(|c| !c.is_empty())
-            || rig::remesh_inputs::parse_face_values(s, 3).is_ok();
+            || rig::remesh_inputs::parse_face_values(s, 3).is_ok()
+            || rig::scan_folder::parse_progress(s, 8).is_ok_and(|d| !d.is_empty());
         assert!(ok, "seed {i} does not parse");
     }
     let mut tried = 0u64;
@@ -308,4 +311,42 @@ proptest! {
         }
         prop_assert_eq!(parse_constraints(text.as_bytes()).unwrap(), expect);
     }
+
+    /// A scan's progress journal reads back the views appended to it, whatever bytes a crash left
+    /// after the last newline; an index outside the scan is refused with its line.
+    #[test]
+    fn progress_journals_round_trip(done in prop::collection::vec(0usize..50, 0..40), torn in "[0-9]{0,3}") {
+        let mut text: String = done.iter().map(|v| format!("{v}\n")).collect();
+        text += &torn;
+        prop_assert_eq!(rig::scan_folder::parse_progress(text.as_bytes(), 50).unwrap(), done.clone());
+        if let Some(&v) = done.first() {
+            let e = rig::scan_folder::parse_progress(text.as_bytes(), v).unwrap_err().to_string();
+            prop_assert!(e.contains("line 1") && e.contains("not in the scan"), "{}", e);
+        }
+    }
+}
+
+/// Completing views journals them without rewriting scan.json; reading the folder sees them, and
+/// writing the manifest folds the journal in.
+#[test]
+fn completed_views_are_journalled_and_folded_into_the_manifest() {
+    let dir = fixtures::temp_dir("progress-journal");
+    let patterns = rig::patterns::structured_light_sequence(4, 2, &[]);
+    let mut m = rig::Manifest::fresh(rig::Method::StructuredLight, "test", None, &[0.0, 10.0, 20.0], &patterns);
+    m.write(dir.path()).unwrap();
+    let written = std::fs::read(dir.path().join("scan.json")).unwrap();
+    m.complete_view(dir.path(), 0).unwrap();
+    m.complete_view(dir.path(), 2).unwrap();
+    assert_eq!(std::fs::read(dir.path().join("scan.json")).unwrap(), written, "scan.json is not rewritten per view");
+    assert_eq!(std::fs::read_to_string(dir.path().join("scan.progress")).unwrap(), "0\n2\n");
+    let read = rig::Manifest::read(dir.path()).unwrap();
+    assert_eq!(read.views.iter().map(|v| v.complete).collect::<Vec<_>>(), [true, false, true]);
+    assert_eq!(read.first_incomplete(), Some(1));
+    read.write(dir.path()).unwrap();
+    assert!(!dir.path().join("scan.progress").exists());
+    assert_eq!(rig::Manifest::read(dir.path()).unwrap(), read);
+    // A journal naming a view the scan does not have is refused, naming the file.
+    std::fs::write(dir.path().join("scan.progress"), "9\n").unwrap();
+    let e = rig::Manifest::read(dir.path()).unwrap_err().to_string();
+    assert!(e.contains("scan.progress") && e.contains("view 9 is not in the scan (3 views)"), "{e}");
 }

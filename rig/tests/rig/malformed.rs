@@ -72,15 +72,35 @@ fn catalogue() -> Vec<Case> {
             name: "index_out_of_range.ply",
             bytes: ascii("3 0 1 7"),
             read: mesh,
-            message: "element `face` #0: vertex index 7 is out of range (there are 3 vertices)",
-            is: |p| matches!(p, Problem::IndexOutOfRange { index: 7, count: 3 }),
+            message: "element `face` #0: vertex index 7 is out of range (there are 3 vertices, numbered 0 to 2)",
+            is: |p| matches!(p, Problem::IndexOutOfRange { index, count: 3, .. } if &**index == "7"),
+        },
+        Case {
+            name: "float_index.ply",
+            bytes: format!(
+                "{ASCII_HEAD}element face 1\nproperty list uchar float vertex_indices\nend_header\n{VERTS}3 0 1.5 2\n"
+            )
+            .into_bytes(),
+            read: mesh,
+            message: "element `face` #0: face index 1.5 is not a whole number",
+            is: |p| matches!(p, Problem::FractionalIndex(i) if i == "1.5"),
+        },
+        Case {
+            name: "nan_index.ply",
+            bytes: format!(
+                "{ASCII_HEAD}element face 1\nproperty list uchar float vertex_indices\nend_header\n{VERTS}3 0 nan 2\n"
+            )
+            .into_bytes(),
+            read: mesh,
+            message: "element `face` #0: face index NaN is not a whole number",
+            is: |p| matches!(p, Problem::FractionalIndex(_)),
         },
         Case {
             name: "negative_index.ply",
             bytes: ascii("3 0 -1 2"),
             read: mesh,
-            message: "element `face` #0: vertex index -1 is out of range (there are 3 vertices)",
-            is: |p| matches!(p, Problem::IndexOutOfRange { index: -1, .. }),
+            message: "element `face` #0: vertex index -1 is out of range (there are 3 vertices, numbered 0 to 2)",
+            is: |p| matches!(p, Problem::IndexOutOfRange { index, .. } if &**index == "-1"),
         },
         Case {
             name: "not_a_number.ply",
@@ -240,15 +260,30 @@ fn catalogue() -> Vec<Case> {
             name: "zero_index.obj",
             bytes: b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n".to_vec(),
             read: mesh,
-            message: "line 4: vertex index -1 is out of range (there are 3 vertices)",
-            is: |p| matches!(p, Problem::IndexOutOfRange { .. }),
+            // OBJ counts from 1: the index is reported as written.
+            message: "line 4: vertex index 0 is out of range (there are 3 vertices, numbered 1 to 3)",
+            is: |p| matches!(p, Problem::IndexOutOfRange { index, first: 1, .. } if &**index == "0"),
         },
         Case {
             name: "far_index.obj",
             bytes: b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4/1/1\n".to_vec(),
             read: mesh,
-            message: "line 4: vertex index 3 is out of range (there are 3 vertices)",
-            is: |p| matches!(p, Problem::IndexOutOfRange { index: 3, count: 3 }),
+            message: "line 4: vertex index 4 is out of range (there are 3 vertices, numbered 1 to 3)",
+            is: |p| matches!(p, Problem::IndexOutOfRange { index, count: 3, .. } if &**index == "4"),
+        },
+        Case {
+            name: "texture_index.obj",
+            bytes: b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/2 3/1\n".to_vec(),
+            read: mesh,
+            message: "line 5: texture coordinate index 2 is out of range (there are 1 texture coordinates, numbered 1 to 1)",
+            is: |p| matches!(p, Problem::IndexOutOfRange { what: "texture coordinate", .. }),
+        },
+        Case {
+            name: "normal_index.obj",
+            bytes: b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2//1 3//1\n".to_vec(),
+            read: mesh,
+            message: "line 4: normal index 1 is out of range (the file has no normals before it)",
+            is: |p| matches!(p, Problem::IndexOutOfRange { what: "normal", count: 0, .. }),
         },
         Case {
             name: "unknown_statement.obj",
@@ -296,8 +331,8 @@ fn catalogue() -> Vec<Case> {
             name: "face_out_of_range.off",
             bytes: b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n".to_vec(),
             read: mesh,
-            message: "line 6: vertex index 3 is out of range (there are 3 vertices)",
-            is: |p| matches!(p, Problem::IndexOutOfRange { index: 3, count: 3 }),
+            message: "line 6: vertex index 3 is out of range (there are 3 vertices, numbered 0 to 2)",
+            is: |p| matches!(p, Problem::IndexOutOfRange { index, count: 3, .. } if &**index == "3"),
         },
         Case {
             name: "truncated.off",
@@ -384,4 +419,19 @@ fn an_unknown_extension_says_what_would_be_understood() {
 fn locations_display_as_users_read_them() {
     let at = Location::Element { name: "face".into(), index: 12, line: None };
     assert_eq!(at.to_string(), "element `face` #12");
+}
+
+/// A JPEG cut short (a copy that stopped) is refused, not decoded with its missing rows grey; the
+/// whole file still reads. On a real FabScanPi capture.
+#[test]
+fn a_truncated_jpeg_is_refused() {
+    let Some(path) = fixtures::data_file("fabscanpi-calibration/calibration_8x10/calibration_003.jpg") else { return };
+    let bytes = std::fs::read(&path).unwrap();
+    let whole = rig::image::decode_jpeg(&bytes).unwrap();
+    assert!(whole.width > 0 && whole.height > 0);
+    for keep in [0.6, 0.95, 0.999] {
+        let cut = &bytes[..(bytes.len() as f64 * keep) as usize];
+        let e = rig::image::decode_jpeg(cut).unwrap_err().to_string();
+        assert!(e.contains("truncated") || e.contains("corrupt"), "{keep}: {e}");
+    }
 }

@@ -192,3 +192,26 @@ proptest! {
         }
     }
 }
+
+/// A polygon with more corners than a `uchar` count holds is written whole, with a wider count, in
+/// every encoding: one face of 300 corners reads back as that face.
+#[test]
+fn a_polygon_of_300_corners_survives_ply() {
+    let n = 300;
+    let vertices: Vec<Point3> = (0..n)
+        .map(|k| {
+            let a = k as f64 / n as f64 * std::f64::consts::TAU;
+            Point3::new(a.cos(), a.sin(), 0.0)
+        })
+        .collect();
+    let m = PolyMesh::from_faces(vertices, [(0..n as u32).collect::<Vec<_>>(), vec![0, 1, 2]]);
+    for encoding in [ply::Encoding::Ascii, ply::Encoding::BinaryLittleEndian, ply::Encoding::BinaryBigEndian] {
+        let opts = WriteOptions { encoding, precision: Precision::F64, comments: Vec::new() };
+        let bytes = ply::mesh_to_bytes(&m, &opts);
+        assert!(String::from_utf8_lossy(&bytes[..200]).contains("list ushort int vertex_indices"));
+        let back = ply::mesh_from_ply(&ply::parse(&bytes).unwrap()).unwrap();
+        assert_eq!(back.face_count(), 2);
+        assert_eq!(back.faces().next().unwrap().len(), n);
+        assert_eq!(back, m);
+    }
+}

@@ -1,0 +1,10 @@
+#![no_main]
+//! Rig TOML.
+
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|bytes: &[u8]| {
+    if let Ok(text) = std::str::from_utf8(bytes) {
+        let _ = rig::Rig::from_toml_str(text);
+    }
+});

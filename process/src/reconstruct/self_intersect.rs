@@ -1,0 +1,319 @@
+//! Self-intersections of a triangle mesh, found and repaired. Marching cubes over one continuous
+//! field never makes a mesh cut through itself, but AdFFT blends the local solutions of octree leaves
+//! (eq. 5.19), and where neighbouring leaves disagree the blended level can fold a thin sheet through
+//! its neighbour: closed and manifold, yet self-intersecting — which slicers for 3-D printing reject.
+//!
+//! Finding: candidate pairs from a uniform grid over the triangles' bounding boxes, then the
+//! triangle–triangle test of Möller (1997): each triangle against the other's plane, then the two
+//! intervals where they cross the planes' common line (coplanar pairs: edge crossings and containment
+//! in the plane). As Open3D does, triangles that share a vertex are not tested: they meet by
+//! construction.
+//!
+//! Repairing: the vertices of intersecting triangles are moved toward the mean of their neighbours
+//! (the umbrella operator), which unfolds the small folds blending leaves; the region grows by a ring
+//! each round until no pair is left, for a few rounds at most. What is left is reported, never hidden.
+
+use rig::TriMesh;
+use rig::math::{Point3, Real, Vector3};
+use serde::{Deserialize, Serialize};
+use std::collections::{HashMap, HashSet};
+
+/// What [`repair`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct RepairReport {
+    /// Intersecting triangle pairs before.
+    pub found: usize,
+    /// Smoothing rounds run.
+    pub rounds: usize,
+    /// Vertices moved.
+    pub moved: usize,
+    /// Intersecting pairs after.
+    pub remaining: usize,
+}
+
+/// Every pair of triangles (lower index first) that intersect without sharing a vertex.
+pub fn intersecting_pairs(mesh: &TriMesh) -> Vec<(u32, u32)> {
+    let faces = &mesh.faces;
+    if faces.len() < 2 {
+        return Vec::new();
+    }
+    let tri = |f: usize| faces[f].map(|i| mesh.vertices[i as usize]);
+    // Cells about twice the mean edge: each triangle in a handful of cells.
+    let mean_edge =
+        faces.iter().map(|f| (mesh.vertices[f[1] as usize] - mesh.vertices[f[0] as usize]).norm()).sum::<Real>()
+            / faces.len() as Real;
+    let cell = (2.0 * mean_edge).max(Real::MIN_POSITIVE);
+    let key = |p: &Point3| p.coords.map(|c| (c / cell).floor() as i64);
+    let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+    let mut boxes = Vec::with_capacity(faces.len());
+    for f in 0..faces.len() {
+        let t = tri(f);
+        let lo = t[0].inf(&t[1]).inf(&t[2]);
+        let hi = t[0].sup(&t[1]).sup(&t[2]);
+        if !lo.coords.iter().chain(hi.coords.iter()).all(|c| c.is_finite()) {
+            boxes.push((lo, hi));
+            continue;
+        }
+        let (a, b) = (key(&lo), key(&hi));
+        // A sliver spanning many cells goes in at most 4096 of them: with pathological input, a slower
+        // search rather than unbounded memory.
+        let span: i64 = (0..3).map(|d| b[d] - a[d] + 1).product();
+        if span > 4096 {
+            grid.entry([i64::MIN; 3]).or_default().push(f as u32);
+        } else {
+            for x in a[0]..=b[0] {
+                for y in a[1]..=b[1] {
+                    for z in a[2]..=b[2] {
+                        grid.entry([x, y, z]).or_default().push(f as u32);
+                    }
+                }
+            }
+        }
+        boxes.push((lo, hi));
+    }
+    let huge: Vec<u32> = grid.remove(&[i64::MIN; 3]).unwrap_or_default();
+    let overlap = |f: usize, g: usize| {
+        let ((la, ha), (lb, hb)) = (boxes[f], boxes[g]);
+        (0..3).all(|d| la[d] <= hb[d] && lb[d] <= ha[d])
+    };
+    let mut seen: HashSet<(u32, u32)> = HashSet::new();
+    let mut out = Vec::new();
+    let mut test = |f: u32, g: u32| {
+        let (f, g) = (f.min(g), f.max(g));
+        if f == g || faces[f as usize].iter().any(|v| faces[g as usize].contains(v)) {
+            return;
+        }
+        if overlap(f as usize, g as usize)
+            && seen.insert((f, g))
+            && triangles_intersect(tri(f as usize), tri(g as usize))
+        {
+            out.push((f, g));
+        }
+    };
+    for members in grid.values() {
+        for (i, &f) in members.iter().enumerate() {
+            for &g in &members[i + 1..] {
+                test(f, g);
+            }
+        }
+    }
+    for &f in &huge {
+        for g in 0..faces.len() as u32 {
+            test(f, g);
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// Whether two triangles intersect (touching counts).
+pub fn triangles_intersect(a: [Point3; 3], b: [Point3; 3]) -> bool {
+    // Distances are scaled by the plane normal's length (twice the triangle's area): the tolerance
+    // for "in the plane" is a distance, rounding at the coordinates' size, times that length.
+    let scale = a.iter().chain(&b).map(|p| p.coords.amax()).fold(0.0, Real::max).max(Real::MIN_POSITIVE);
+    let plane = |t: &[Point3; 3]| {
+        let n = (t[1] - t[0]).cross(&(t[2] - t[0]));
+        (n, -n.dot(&t[0].coords), 1e-12 * scale * n.norm())
+    };
+    let (nb, db, eps_b) = plane(&b);
+    let da = a.map(|p| snap(nb.dot(&p.coords) + db, eps_b));
+    if same_side(da) {
+        return false;
+    }
+    let (na, dna, eps_a) = plane(&a);
+    let dbs = b.map(|p| snap(na.dot(&p.coords) + dna, eps_a));
+    if same_side(dbs) {
+        return false;
+    }
+    if da.iter().all(|&d| d == 0.0) {
+        return coplanar_intersect(&a, &b, &na);
+    }
+    // Both cross the other's plane: compare where along the planes' common line.
+    let line = na.cross(&nb);
+    let axis = line.iamax();
+    let (Some(ia), Some(ib)) = (interval(a.map(|p| p[axis]), da), interval(b.map(|p| p[axis]), dbs)) else {
+        return coplanar_intersect(&a, &b, &na);
+    };
+    ia.0 <= ib.1 && ib.0 <= ia.1
+}
+
+fn snap(d: Real, eps: Real) -> Real {
+    if d.abs() < eps { 0.0 } else { d }
+}
+
+/// All three strictly on one side of the plane.
+fn same_side(d: [Real; 3]) -> bool {
+    (d[0] > 0.0 && d[1] > 0.0 && d[2] > 0.0) || (d[0] < 0.0 && d[1] < 0.0 && d[2] < 0.0)
+}
+
+/// Where a triangle crosses the other's plane, as an interval of the projections `p` on the common
+/// line, from the signed distances `d` of its corners (`None`: it lies in the plane).
+fn interval(p: [Real; 3], d: [Real; 3]) -> Option<(Real, Real)> {
+    // The corner alone on its side (Möller's case analysis).
+    let (lone, o1, o2) = if d[0] * d[1] > 0.0 {
+        (2, 0, 1)
+    } else if d[0] * d[2] > 0.0 {
+        (1, 0, 2)
+    } else if d[1] * d[2] > 0.0 || d[0] != 0.0 {
+        (0, 1, 2)
+    } else if d[1] != 0.0 {
+        (1, 0, 2)
+    } else if d[2] != 0.0 {
+        (2, 0, 1)
+    } else {
+        return None;
+    };
+    let at = |o: usize| p[lone] + (p[o] - p[lone]) * d[lone] / (d[lone] - d[o]);
+    let (t1, t2) = (at(o1), at(o2));
+    Some((t1.min(t2), t1.max(t2)))
+}
+
+/// Two triangles in one plane (normal `n`): an edge of one crosses an edge of the other, or one holds
+/// a corner of the other.
+fn coplanar_intersect(a: &[Point3; 3], b: &[Point3; 3], n: &Vector3) -> bool {
+    // Drop the normal's largest axis: the projection keeps the triangles' shapes non-degenerate.
+    let drop = n.iamax();
+    let (i, j) = ((drop + 1) % 3, (drop + 2) % 3);
+    let flat = |t: &[Point3; 3]| t.map(|p| (p[i], p[j]));
+    let (a, b) = (flat(a), flat(b));
+    let cross =
+        |o: (Real, Real), p: (Real, Real), q: (Real, Real)| (p.0 - o.0) * (q.1 - o.1) - (p.1 - o.1) * (q.0 - o.0);
+    let segments_cross = |p1, p2, q1, q2| {
+        let (d1, d2) = (cross(q1, q2, p1), cross(q1, q2, p2));
+        let (d3, d4) = (cross(p1, p2, q1), cross(p1, p2, q2));
+        d1 * d2 <= 0.0 && d3 * d4 <= 0.0 && !(d1 == 0.0 && d2 == 0.0 && d3 == 0.0 && d4 == 0.0)
+    };
+    for k in 0..3 {
+        for l in 0..3 {
+            if segments_cross(a[k], a[(k + 1) % 3], b[l], b[(l + 1) % 3]) {
+                return true;
+            }
+        }
+    }
+    let inside = |t: &[(Real, Real); 3], p: (Real, Real)| {
+        let s = [cross(t[0], t[1], p), cross(t[1], t[2], p), cross(t[2], t[0], p)];
+        s.iter().all(|&x| x >= 0.0) || s.iter().all(|&x| x <= 0.0)
+    };
+    inside(&b, a[0]) || inside(&a, b[0])
+}
+
+/// Removes self-intersections by smoothing the vertices of intersecting triangles (see the module
+/// notes), for at most `max_rounds` rounds.
+pub fn repair(mesh: &mut TriMesh, max_rounds: usize) -> RepairReport {
+    let mut pairs = intersecting_pairs(mesh);
+    let mut report = RepairReport { found: pairs.len(), ..Default::default() };
+    if pairs.is_empty() {
+        return report;
+    }
+    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); mesh.vertices.len()];
+    for f in &mesh.faces {
+        for k in 0..3 {
+            let (a, b) = (f[k], f[(k + 1) % 3]);
+            neighbours[a as usize].push(b);
+            neighbours[b as usize].push(a);
+        }
+    }
+    for n in &mut neighbours {
+        n.sort_unstable();
+        n.dedup();
+    }
+    let mut region: HashSet<u32> = HashSet::new();
+    let mut moved: HashSet<u32> = HashSet::new();
+    while !pairs.is_empty() && report.rounds < max_rounds {
+        for &(f, g) in &pairs {
+            region.extend(mesh.faces[f as usize]);
+            region.extend(mesh.faces[g as usize]);
+        }
+        // Each round reaches a ring further, so a fold wider than its triangles unfolds too.
+        if report.rounds > 0 {
+            let ring: Vec<u32> = region.iter().flat_map(|&v| neighbours[v as usize].iter().copied()).collect();
+            region.extend(ring);
+        }
+        for _ in 0..4 {
+            let targets: Vec<(u32, Point3)> = region
+                .iter()
+                .filter(|&&v| !neighbours[v as usize].is_empty())
+                .map(|&v| {
+                    let n = &neighbours[v as usize];
+                    let mean =
+                        n.iter().fold(Vector3::zeros(), |s, &u| s + mesh.vertices[u as usize].coords) / n.len() as Real;
+                    (v, Point3::from(0.5 * (mesh.vertices[v as usize].coords + mean)))
+                })
+                .collect();
+            for (v, p) in targets {
+                mesh.vertices[v as usize] = p;
+                moved.insert(v);
+            }
+        }
+        report.rounds += 1;
+        pairs = intersecting_pairs(mesh);
+    }
+    report.moved = moved.len();
+    report.remaining = pairs.len();
+    report
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn p(x: Real, y: Real, z: Real) -> Point3 {
+        Point3::new(x, y, z)
+    }
+
+    #[test]
+    fn crossing_touching_apart_and_coplanar_pairs() {
+        let a = [p(0.0, 0.0, 0.0), p(2.0, 0.0, 0.0), p(0.0, 2.0, 0.0)];
+        // Pierces a through its interior.
+        assert!(triangles_intersect(a, [p(0.5, 0.5, -1.0), p(0.5, 0.5, 1.0), p(1.5, 0.5, 1.0)]));
+        // Above it.
+        assert!(!triangles_intersect(a, [p(0.5, 0.5, 0.1), p(0.5, 0.5, 1.0), p(1.5, 0.5, 1.0)]));
+        // Crosses a's plane outside a.
+        assert!(!triangles_intersect(a, [p(3.0, 3.0, -1.0), p(3.0, 3.0, 1.0), p(4.0, 3.0, 1.0)]));
+        // In a's plane, overlapping; and apart.
+        assert!(triangles_intersect(a, [p(0.5, 0.5, 0.0), p(3.0, 0.5, 0.0), p(0.5, 3.0, 0.0)]));
+        assert!(!triangles_intersect(a, [p(3.0, 3.0, 0.0), p(4.0, 3.0, 0.0), p(3.0, 4.0, 0.0)]));
+        // One inside the other, coplanar.
+        assert!(triangles_intersect(a, [p(0.2, 0.2, 0.0), p(0.4, 0.2, 0.0), p(0.2, 0.4, 0.0)]));
+    }
+
+    /// The grid search finds exactly the pairs a brute-force search over all pairs finds.
+    #[test]
+    fn the_grid_search_agrees_with_brute_force() {
+        let mut rng = fixtures::Lcg::new(11);
+        let mut mesh = TriMesh::default();
+        for _ in 0..300 {
+            let c = p(rng.uniform() * 10.0, rng.uniform() * 10.0, rng.uniform() * 10.0);
+            let base = mesh.vertices.len() as u32;
+            for _ in 0..3 {
+                mesh.vertices.push(c + Vector3::new(rng.uniform(), rng.uniform(), rng.uniform()) * 1.5);
+            }
+            mesh.faces.push([base, base + 1, base + 2]);
+        }
+        let tri = |f: usize| mesh.faces[f].map(|i| mesh.vertices[i as usize]);
+        let mut brute = Vec::new();
+        for f in 0..mesh.faces.len() {
+            for g in f + 1..mesh.faces.len() {
+                if triangles_intersect(tri(f), tri(g)) {
+                    brute.push((f as u32, g as u32));
+                }
+            }
+        }
+        assert!(brute.len() > 10, "the test needs intersections: {}", brute.len());
+        assert_eq!(intersecting_pairs(&mesh), brute);
+    }
+
+    /// A closed box with one corner pushed through the opposite face intersects itself; repaired,
+    /// it does not, and the rest of the box is where it was.
+    #[test]
+    fn a_fold_is_smoothed_out() {
+        let mut mesh = fixtures::box_mesh(Point3::origin(), Vector3::repeat(1.0));
+        let corner = mesh.vertices.iter().position(|v| v.x > 0.0 && v.y > 0.0 && v.z > 0.0).unwrap();
+        // Through the opposite face's middle and out.
+        mesh.vertices[corner] = p(-3.0, -0.2, -0.3);
+        assert!(!intersecting_pairs(&mesh).is_empty());
+        let r = repair(&mut mesh, 8);
+        assert!(r.found > 0 && r.remaining == 0, "{r:?}");
+        assert!(intersecting_pairs(&mesh).is_empty());
+    }
+}
