@@ -328,6 +328,14 @@ fn catalogue() -> Vec<Case> {
             is: |p| matches!(p, Problem::CountTooLarge { .. }),
         },
         Case {
+            // Found by cargo fuzz: the two counts' sum overflowed while the error was built.
+            name: "count_overflow.off",
+            bytes: b"OFF\n18446744073709551615 400000000030000 30000\n".to_vec(),
+            read: mesh,
+            message: "line 2: declares 18446744073709551615 entries of at least 6 bytes each, but only 47 bytes remain",
+            is: |p| matches!(p, Problem::CountTooLarge { .. }),
+        },
+        Case {
             name: "face_out_of_range.off",
             bytes: b"OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n".to_vec(),
             read: mesh,
