@@ -49,7 +49,11 @@ pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
     // cannot hold before allocating for them.
     let need = (nv as u128) * 6 + (nf as u128) * 8;
     if need > bytes.len() as u128 {
-        let problem = Problem::CountTooLarge { count: (nv as u64).saturating_add(nf as u64), min_bytes: 6, available: bytes.len() as u64 };
+        let problem = Problem::CountTooLarge {
+            count: (nv as u64).saturating_add(nf as u64),
+            min_bytes: 6,
+            available: bytes.len() as u64,
+        };
         return Err(err(counts_line, problem));
     }
     let mut mesh = PolyMesh { vertices: Vec::with_capacity(nv), ..Default::default() };
