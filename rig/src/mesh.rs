@@ -16,6 +16,23 @@ pub struct TriMesh {
 }
 
 impl TriMesh {
+    /// Each vertex's neighbours along edges (sorted, each once).
+    pub fn vertex_neighbours(&self) -> Vec<Vec<u32>> {
+        let mut n = vec![Vec::new(); self.vertices.len()];
+        for f in &self.faces {
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                n[a as usize].push(b);
+                n[b as usize].push(a);
+            }
+        }
+        for list in &mut n {
+            list.sort_unstable();
+            list.dedup();
+        }
+        n
+    }
+
     /// The enclosed volume by the divergence theorem: positive for a closed mesh whose triangles face
     /// outward (counter-clockwise seen from outside), negative for inward-facing ones.
     pub fn signed_volume(&self) -> Real {

@@ -205,18 +205,7 @@ pub fn repair(mesh: &mut TriMesh, max_rounds: usize) -> RepairReport {
     if pairs.is_empty() {
         return report;
     }
-    let mut neighbours: Vec<Vec<u32>> = vec![Vec::new(); mesh.vertices.len()];
-    for f in &mesh.faces {
-        for k in 0..3 {
-            let (a, b) = (f[k], f[(k + 1) % 3]);
-            neighbours[a as usize].push(b);
-            neighbours[b as usize].push(a);
-        }
-    }
-    for n in &mut neighbours {
-        n.sort_unstable();
-        n.dedup();
-    }
+    let neighbours = mesh.vertex_neighbours();
     let mut region: HashSet<u32> = HashSet::new();
     let mut moved: HashSet<u32> = HashSet::new();
     while !pairs.is_empty() && report.rounds < max_rounds {

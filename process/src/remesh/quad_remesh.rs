@@ -174,7 +174,7 @@ pub fn streamlines(
     }
     let t0 = Instant::now();
     report.input_faces = mesh.faces.len();
-    let neighbours = vertex_neighbours(mesh);
+    let neighbours = mesh.vertex_neighbours();
 
     // Constraint paths: the user's, joined up along edges, then the feature lines.
     let mut paths: Vec<Vec<usize>> = Vec::new();
@@ -303,23 +303,6 @@ pub fn snap_lines(mesh: &TriMesh, lines: &[ConstraintLine]) -> Result<Vec<Vec<us
     Ok(out)
 }
 
-/// Each vertex's neighbours along edges.
-fn vertex_neighbours(mesh: &TriMesh) -> Vec<Vec<u32>> {
-    let mut n = vec![Vec::new(); mesh.vertices.len()];
-    for f in &mesh.faces {
-        for k in 0..3 {
-            let (a, b) = (f[k], f[(k + 1) % 3]);
-            n[a as usize].push(b);
-            n[b as usize].push(a);
-        }
-    }
-    for list in &mut n {
-        list.sort_unstable();
-        list.dedup();
-    }
-    n
-}
-
 /// Dijkstra distances along edges from `start`, with each vertex's predecessor.
 fn edge_distances(mesh: &TriMesh, neighbours: &[Vec<u32>], start: usize) -> (Vec<Real>, Vec<u32>) {
     edge_distances_from(mesh, neighbours, &[start])
@@ -426,7 +409,7 @@ fn split_at_turns(mesh: &TriMesh, path: &[usize], max_turn_deg: Real) -> Vec<Vec
 /// the vertices at least `clearance` from every constrained vertex where there are such: a pole is a
 /// singularity, and on a crease its fan of lines would cut the crease's corner.
 fn poles(mesh: &TriMesh, constrained: &[usize], clearance: Real) -> Vec<(usize, Real)> {
-    let neighbours = vertex_neighbours(mesh);
+    let neighbours = mesh.vertex_neighbours();
     // Parts as the field's equations see them: a face without area carries no flux, so two pieces
     // joined only through such faces are two parts, and each needs its own poles (else the system is
     // singular there).
@@ -636,7 +619,7 @@ mod tests {
     #[test]
     fn constraint_paths_are_joined_split_at_corners_and_checked() {
         let m = plate(6, 6);
-        let nb = vertex_neighbours(&m);
+        let nb = m.vertex_neighbours();
         let id = |i: usize, j: usize| j * 7 + i;
         // Two far vertices on one row get the row's edges between them.
         let p = join_path(&m, &nb, &[id(0, 3), id(4, 3)]).unwrap();
