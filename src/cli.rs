@@ -259,7 +259,8 @@ pub struct ConvertArgs {
 /// The simulated rig and the object on its platter.
 #[derive(clap::Args, Debug)]
 pub struct SimWorld {
-    /// Simulator config: a TOML file, or the built-in `structured-light` or `laser` rig.
+    /// Simulator config: a TOML file, or a built-in rig: `structured-light`, `structured-light-640`, `laser`, or
+    /// `realistic` (the laser rig in an enclosure, colour JPEG frames, no laser-off frame).
     #[arg(long, default_value = "structured-light")]
     pub config: String,
     /// The object: a PLY, OBJ or OFF mesh (default: the built-in fluted vase).

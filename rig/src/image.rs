@@ -126,8 +126,8 @@ pub fn read_png(path: &Path) -> Result<Image8, Error> {
     decode_png(&read_bytes(path)?).map_err(|e| e.with_path(path))
 }
 
-/// Decodes baseline or progressive JPEG bytes to grey (what corner detection and laser peaks use;
-/// the camera streams of Raspberry Pi and webcam scanners are JPEG).
+/// Decodes baseline or progressive JPEG bytes: RGB for colour JPEGs (the camera streams of Raspberry
+/// Pi and webcam scanners; a red laser is told from white light by its colour), grey for grey ones.
 pub fn decode_jpeg(bytes: &[u8]) -> Result<Image8, ParseError> {
     use zune_core::bytestream::ZCursor;
     use zune_core::colorspace::ColorSpace;
@@ -144,16 +144,31 @@ pub fn decode_jpeg(bytes: &[u8]) -> Result<Image8, ParseError> {
     {
         return Err(bad("the JPEG is truncated: its data stops before the end-of-image marker".into()));
     }
-    let options = DecoderOptions::default().jpeg_set_out_colorspace(ColorSpace::Luma).set_strict_mode(true);
+    let options = DecoderOptions::default().set_strict_mode(true);
     let mut dec = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
     dec.decode_headers().map_err(|e| bad(format!("not a readable JPEG: {e:?}")))?;
     let info = dec.info().ok_or_else(|| bad("a JPEG without a frame header".into()))?;
     let (w, h) = (info.width as u32, info.height as u32);
+    let grey = info.components == 1;
+    let (out, channels) = if grey { (ColorSpace::Luma, 1u8) } else { (ColorSpace::RGB, 3u8) };
+    dec.set_options(options.jpeg_set_out_colorspace(out));
     let data = dec.decode().map_err(|e| bad(format!("corrupt JPEG data: {e:?}")))?;
-    if data.len() != (w as usize) * (h as usize) {
-        return Err(bad(format!("{} grey values for a {w}×{h} image", data.len())));
+    if data.len() != (w as usize) * (h as usize) * channels as usize {
+        return Err(bad(format!("{} values for a {w}×{h} image of {channels} channels", data.len())));
     }
-    Ok(Image8::gray(w, h, data))
+    Ok(Image8 { width: w, height: h, channels, data })
+}
+
+/// JPEG bytes of an image at `quality` (1–100): what a webcam or Raspberry Pi camera streams, for the
+/// simulator's realistic frames.
+pub fn jpeg_bytes(img: &Image8, quality: u8) -> Vec<u8> {
+    let mut out = Vec::with_capacity(img.data.len() / 8 + 1024);
+    let colour = if img.channels == 3 { jpeg_encoder::ColorType::Rgb } else { jpeg_encoder::ColorType::Luma };
+    let enc = jpeg_encoder::Encoder::new(&mut out, quality.clamp(1, 100));
+    // The sizes are a camera's (checked far below 65535) and the buffer matches them: encoding into
+    // memory cannot fail otherwise.
+    enc.encode(&img.data, img.width as u16, img.height as u16, colour).expect("an image of a camera's size encodes");
+    out
 }
 
 /// Whether [`read_image`] reads `path` by its extension (PNG or JPEG, any case).
@@ -161,7 +176,7 @@ pub fn is_image_file(path: &Path) -> bool {
     path.extension().is_some_and(|e| ["png", "jpg", "jpeg"].iter().any(|x| e.eq_ignore_ascii_case(x)))
 }
 
-/// Reads a camera frame by its extension: PNG, or JPEG (`.jpg`, `.jpeg`) as grey.
+/// Reads a camera frame by its extension: PNG or JPEG (`.jpg`, `.jpeg`), colour kept.
 pub fn read_image(path: &Path) -> Result<Image8, Error> {
     let ext = path.extension().map(|e| e.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
     match ext.as_str() {
@@ -189,5 +204,21 @@ mod tests {
         let rgb = Image8 { width: 2, height: 2, channels: 3, data: (0..12).map(|i| (i * 20) as u8).collect() };
         assert_eq!(decode_png(&png_bytes(&rgb, false)).unwrap(), rgb);
         assert_eq!(rgb.to_gray().data.len(), 4);
+    }
+
+    #[test]
+    fn jpeg_keeps_colour_and_grey_close() {
+        let rgb = Image8 {
+            width: 16,
+            height: 8,
+            channels: 3,
+            data: (0..16 * 8).flat_map(|i| [200u8, (i % 16 * 4) as u8, 30]).collect(),
+        };
+        let back = decode_jpeg(&jpeg_bytes(&rgb, 95)).unwrap();
+        assert_eq!((back.width, back.height, back.channels), (16, 8, 3));
+        let worst = rgb.data.iter().zip(&back.data).map(|(a, b)| a.abs_diff(*b)).max().unwrap();
+        assert!(worst <= 12, "{worst}");
+        let grey = rgb.to_gray();
+        assert_eq!(decode_jpeg(&jpeg_bytes(&grey, 95)).unwrap().channels, 1);
     }
 }

@@ -49,11 +49,11 @@ pub use projector::Projector;
 
 /// Laser light planes.
 pub mod laser;
-pub use laser::LaserPlane;
+pub use laser::{LaserColour, LaserPlane};
 
 /// The turntable axis and view poses.
 pub mod turntable;
-pub use turntable::TurntableAxis;
+pub use turntable::{TurntableAxis, WorkingVolume};
 
 /// The rig description and its TOML file.
 pub mod rig_file;

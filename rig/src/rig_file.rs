@@ -26,15 +26,18 @@
 //! name = "left"
 //! normal = [0.866, 0.0, 0.5]
 //! distance_mm = 150.0
+//! colour = "red"                 # red (default), green, blue or white: picks the line out of colour frames
 //!
 //! [turntable]                    # camera frame; direction points up out of the platter
 //! axis_point_mm = [0.0, 60.0, 400.0]
 //! axis_direction = [0.0, -1.0, 0.0]
+//! platter_radius_mm = 100.0      # optional: the working volume is the cylinder of this radius
+//! working_height_mm = 150.0      # optional: … and this height above the platter
 //! ```
 
 use crate::camera::{Distortion, PinholeCamera};
 use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
-use crate::laser::LaserPlane;
+use crate::laser::{LaserColour, LaserPlane};
 use crate::math::{Isometry3, Matrix3, Point3, Real, Rotation3, Translation3, UnitQuaternion, UnitVector3, Vector3};
 use crate::projector::Projector;
 use crate::turntable::TurntableAxis;
@@ -51,6 +54,8 @@ pub struct Laser {
     pub name: String,
     /// Its light plane.
     pub plane: LaserPlane,
+    /// Its colour, which picks its line out of colour frames.
+    pub colour: LaserColour,
 }
 
 /// A whole scanner: everything triangulation and placement need.
@@ -68,6 +73,22 @@ pub struct Rig {
     pub turntable: Option<TurntableAxis>,
     /// The platter's radius (mm), where known: processing crops the turntable out by it.
     pub platter_radius_mm: Option<Real>,
+    /// How high above the platter an object can reach (mm), where known: with the platter's radius it
+    /// bounds the working volume, the only place a laser line can be (a reflection on the scanner's
+    /// wall lies outside).
+    pub working_height_mm: Option<Real>,
+}
+
+impl Rig {
+    /// The working volume — the cylinder above the platter objects stand in — where the rig knows it:
+    /// a turntable and a platter radius (the height is open where the rig does not give it).
+    pub fn working_volume(&self) -> Option<crate::turntable::WorkingVolume> {
+        Some(crate::turntable::WorkingVolume {
+            axis: self.turntable?,
+            radius_mm: self.platter_radius_mm?,
+            height_mm: self.working_height_mm.unwrap_or(Real::INFINITY),
+        })
+    }
 }
 
 #[derive(Serialize, Deserialize)]
@@ -115,6 +136,12 @@ struct LaserToml {
     name: String,
     normal: [f64; 3],
     distance_mm: f64,
+    #[serde(default, skip_serializing_if = "is_red")]
+    colour: LaserColour,
+}
+
+fn is_red(c: &LaserColour) -> bool {
+    *c == LaserColour::Red
 }
 
 #[derive(Serialize, Deserialize)]
@@ -124,6 +151,8 @@ struct TurntableToml {
     axis_direction: [f64; 3],
     #[serde(default, skip_serializing_if = "Option::is_none")]
     platter_radius_mm: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    working_height_mm: Option<f64>,
 }
 
 fn linear() -> f64 {
@@ -249,7 +278,7 @@ impl Rig {
             // The file's plane is n·X = d for the n as written: normalising n scales d with it.
             let plane = LaserPlane::new(Vector3::from(l.normal), l.distance_mm)
                 .ok_or_else(|| invalid(&format!("{field}.normal"), "must be a non-zero, finite direction"))?;
-            lasers.push(Laser { name: l.name.clone(), plane });
+            lasers.push(Laser { name: l.name.clone(), plane, colour: l.colour });
         }
         let turntable = t
             .turntable
@@ -266,7 +295,11 @@ impl Rig {
         if platter_radius_mm.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
             return Err(invalid("turntable.platter_radius_mm", "must be positive"));
         }
-        Ok(Rig { name: t.name, camera, projector, lasers, turntable, platter_radius_mm })
+        let working_height_mm = t.turntable.as_ref().and_then(|tt| tt.working_height_mm);
+        if working_height_mm.is_some_and(|h| !(h.is_finite() && h > 0.0)) {
+            return Err(invalid("turntable.working_height_mm", "must be positive"));
+        }
+        Ok(Rig { name: t.name, camera, projector, lasers, turntable, platter_radius_mm, working_height_mm })
     }
 
     /// The rig as TOML text, with a comment block stating the conventions.
@@ -292,12 +325,14 @@ impl Rig {
                     name: l.name.clone(),
                     normal: l.plane.normal.into_inner().into(),
                     distance_mm: l.plane.distance,
+                    colour: l.colour,
                 })
                 .collect(),
             turntable: self.turntable.map(|a| TurntableToml {
                 axis_point_mm: a.point.coords.into(),
                 axis_direction: a.direction.into_inner().into(),
                 platter_radius_mm: self.platter_radius_mm,
+                working_height_mm: self.working_height_mm,
             }),
         };
         let body = toml::to_string(&t).expect("a rig always serialises: plain numbers, strings and arrays");

@@ -61,6 +61,33 @@ impl TurntableAxis {
     }
 }
 
+/// The working volume of a turntable scanner: the upright cylinder over the platter that an object
+/// on it can fill (Horus' and FabScanPi's region of interest). Light seen outside it — the laser on
+/// the scanner's back wall, the table, a reflection — cannot be the object.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorkingVolume {
+    /// The turntable's axis; the platter top is at its point.
+    pub axis: TurntableAxis,
+    /// The cylinder's radius (mm): the platter's.
+    pub radius_mm: Real,
+    /// Its height above the platter (mm); infinite where unknown.
+    pub height_mm: Real,
+}
+
+impl WorkingVolume {
+    /// How far below the platter top a point still counts as inside (mm): the platter's own surface,
+    /// where the line crosses it, and the calibration's error in the axis point.
+    pub const BELOW_MM: Real = 3.0;
+
+    /// Whether a camera-frame point lies in the volume (radius and height grown by `margin_mm`).
+    pub fn contains(&self, p: &Point3, margin_mm: Real) -> bool {
+        let rel = p - self.axis.point;
+        let h = rel.dot(&self.axis.direction);
+        let radial = (rel - self.axis.direction.into_inner() * h).norm();
+        radial <= self.radius_mm + margin_mm && h >= -Self::BELOW_MM - margin_mm && h <= self.height_mm + margin_mm
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -70,6 +97,22 @@ mod tests {
             point: Point3::new(12.0, 40.0, 380.0),
             direction: UnitVector3::new_normalize(Vector3::new(0.05, -1.0, -0.3)),
         }
+    }
+
+    #[test]
+    fn the_working_volume_is_the_cylinder_over_the_platter() {
+        let axis = TurntableAxis {
+            point: Point3::new(0.0, 50.0, 300.0),
+            direction: UnitVector3::new_normalize(Vector3::new(0.0, -1.0, 0.0)),
+        };
+        let v = WorkingVolume { axis, radius_mm: 100.0, height_mm: 150.0 };
+        assert!(v.contains(&Point3::new(0.0, 0.0, 300.0), 0.0));
+        assert!(v.contains(&Point3::new(99.0, 49.0, 300.0), 0.0));
+        // Beside, above and below the cylinder.
+        assert!(!v.contains(&Point3::new(0.0, 0.0, 420.0), 0.0));
+        assert!(v.contains(&Point3::new(0.0, 0.0, 420.0), 25.0));
+        assert!(!v.contains(&Point3::new(0.0, -110.0, 300.0), 0.0));
+        assert!(!v.contains(&Point3::new(0.0, 60.0, 300.0), 0.0));
     }
 
     #[test]

@@ -150,7 +150,7 @@ pub fn simulate_board(
     }
     std::fs::create_dir_all(out).map_err(|e| Error::File(rig::Error::io(out, e)))?;
     crate::scan::scan_rig(cfg).write(&out.join("rig.toml"))?;
-    let mut manifest: Manifest = fresh_manifest(Method::Board, opts.seed, &angles, &patterns);
+    let mut manifest: Manifest = fresh_manifest(cfg, Method::Board, opts.seed, &angles, &patterns);
     for (view, f) in manifest.views.iter_mut().zip(&fixed) {
         view.held = f.is_some();
     }

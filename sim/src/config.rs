@@ -8,10 +8,14 @@
 //! [sensor]         # exposure, gain, full_well_e (0 = noiseless), read_noise_e, ambient
 //! [projector]      # power, gamma, black_level, defocus_px
 //! [[lasers]]       # one emitter per rig laser: origin_mm (on its plane), line_width_mm (FWHM), power
-//! [scene]          # platter_radius_mm, platter_albedo, object_albedo, object_size_mm, work_light
+//! [scene]          # platter_radius_mm, platter_albedo, object_albedo, object_size_mm, work_light,
+//!                  # wall_distance_mm, floor, wall_albedo, specular, shininess (the enclosure and gloss)
+//! [frames]         # colour, jpeg_quality, laser_off, blur_px, light_rgb, laser_rgb (what a real camera writes)
 //! [scan]           # views, phase = [{ axis = "columns", period_px = 16.0, steps = 4 }, …]
 //! ```
-//! Every section but `[rig]` may be left out; the defaults are a clean, well-exposed desktop setup.
+//! Every section but `[rig]` may be left out; the defaults are a clean, well-exposed desktop setup
+//! without walls, gloss or blur, writing grey PNGs. The built-in `realistic` laser config turns the rest
+//! on: what real captures look like and the simulator otherwise never shows.
 
 use rig::error::{Error, Location, ParseError, Problem};
 use rig::math::{Point3, Real};
@@ -98,6 +102,17 @@ pub struct SceneConfig {
     /// The work light (an LED ring, room light) for lit frames on rigs without a projector, as a fraction
     /// of full scale on a white surface.
     pub work_light: Real,
+    /// A back wall behind the turntable, this far (mm) beyond the axis seen from the camera, catching
+    /// the laser and projector light as a scanner's enclosure does; 0 for none.
+    pub wall_distance_mm: Real,
+    /// A floor (the scanner's base or the table) 10 mm below the platter top, out past the platter.
+    pub floor: bool,
+    /// Albedo of the wall and floor.
+    pub wall_albedo: Real,
+    /// Specular reflectance of the object (Blinn–Phong, 0 = matte): glossy objects' highlights.
+    pub specular: Real,
+    /// Specular exponent (higher: smaller, sharper highlights).
+    pub shininess: Real,
 }
 
 impl Default for SceneConfig {
@@ -108,6 +123,44 @@ impl Default for SceneConfig {
             object_albedo: 0.8,
             object_size_mm: 120.0,
             work_light: 0.6,
+            wall_distance_mm: 0.0,
+            floor: false,
+            wall_albedo: 0.7,
+            specular: 0.0,
+            shininess: 40.0,
+        }
+    }
+}
+
+/// What the camera writes: colour or grey, PNG or JPEG, focus, and the capture program's frames.
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FramesConfig {
+    /// RGB frames (grey when false).
+    pub colour: bool,
+    /// JPEG frames of this quality (1–100); 0 writes lossless PNG.
+    pub jpeg_quality: u8,
+    /// Whether a laser scan captures a laser-off frame per view (FabScanPi captures none).
+    pub laser_off: bool,
+    /// Lens blur, a Gaussian's standard deviation in camera pixels (0 = sharp): it also mixes the
+    /// object and background at silhouettes.
+    pub blur_px: Real,
+    /// The colour of white light (ambient, work light, projector) in the camera's R, G, B.
+    pub light_rgb: [Real; 3],
+    /// What the camera's R, G, B record of the lasers' light (a red laser leaks a little into green
+    /// and blue through the colour filters).
+    pub laser_rgb: [Real; 3],
+}
+
+impl Default for FramesConfig {
+    fn default() -> Self {
+        FramesConfig {
+            colour: false,
+            jpeg_quality: 0,
+            laser_off: true,
+            blur_px: 0.0,
+            light_rgb: [1.0, 0.95, 0.85],
+            laser_rgb: [1.0, 0.08, 0.05],
         }
     }
 }
@@ -142,6 +195,8 @@ pub struct SimConfig {
     pub lasers: Vec<LaserEmitter>,
     /// Platter and object looks.
     pub scene: SceneConfig,
+    /// What the camera writes.
+    pub frames: FramesConfig,
     /// The capture program.
     pub scan: ScanConfig,
 }
@@ -160,6 +215,8 @@ struct SimToml {
     #[serde(default)]
     scene: SceneConfig,
     #[serde(default)]
+    frames: FramesConfig,
+    #[serde(default)]
     scan: ScanConfig,
 }
 
@@ -168,12 +225,15 @@ fn invalid(field: &str, msg: impl Into<String>) -> ParseError {
 }
 
 /// The built-in simulator rigs, by name: `structured-light` (1280×1024 camera, 1024×768 projector),
-/// `structured-light-640` (its 640×512 readout) and `laser` (Ciclop-like, two lasers at ±30°). The
-/// same files as `configs/sim-*.toml`, compiled in.
-pub const BUILTIN: [(&str, &str); 3] = [
+/// `structured-light-640` (its 640×512 readout), `laser` (Ciclop-like, two lasers at ±30°) and
+/// `realistic` (the laser rig as real captures look: an enclosure whose back wall and floor catch the
+/// lasers, warm ambient light, a slightly glossy object, lens blur, colour JPEG frames with a red
+/// laser and no laser-off frame). The same files as `configs/sim-*.toml`, compiled in.
+pub const BUILTIN: [(&str, &str); 4] = [
     ("structured-light", include_str!("../../configs/sim-structured-light.toml")),
     ("structured-light-640", include_str!("../../configs/sim-structured-light-640.toml")),
     ("laser", include_str!("../../configs/sim-laser.toml")),
+    ("realistic", include_str!("../../configs/sim-realistic.toml")),
 ];
 
 impl SimConfig {
@@ -227,12 +287,38 @@ impl SimConfig {
         if !(1..=3600).contains(&t.scan.views) {
             return Err(invalid("scan.views", "must be 1 to 3600 (a tenth of a degree a step)"));
         }
+        let sc = &t.scene;
+        if !(sc.wall_distance_mm >= 0.0
+            && (0.0..=1.0).contains(&sc.wall_albedo)
+            && sc.specular >= 0.0
+            && sc.shininess >= 1.0)
+        {
+            return Err(invalid("scene", "wall_distance_mm ≥ 0, 0 ≤ wall_albedo ≤ 1, specular ≥ 0, shininess ≥ 1"));
+        }
+        let fr = &t.frames;
+        if fr.jpeg_quality > 100 {
+            return Err(invalid("frames.jpeg_quality", "must be 1 to 100, or 0 for PNG frames"));
+        }
+        if !(0.0..=20.0).contains(&fr.blur_px) {
+            return Err(invalid("frames.blur_px", "must be 0 to 20 pixels"));
+        }
+        if !fr.light_rgb.iter().chain(&fr.laser_rgb).all(|v| (0.0..=2.0).contains(v)) {
+            return Err(invalid("frames", "light_rgb and laser_rgb take 0 to 2 per channel"));
+        }
         for (i, ph) in t.scan.phase.iter().enumerate() {
             if ph.steps < 3 || ph.period_px.is_nan() || ph.period_px < 2.0 {
                 return Err(invalid(&format!("scan.phase[{i}]"), "needs steps ≥ 3 and period_px ≥ 2"));
             }
         }
-        Ok(SimConfig { rig, sensor: t.sensor, projector: t.projector, lasers: t.lasers, scene: t.scene, scan: t.scan })
+        Ok(SimConfig {
+            rig,
+            sensor: t.sensor,
+            projector: t.projector,
+            lasers: t.lasers,
+            scene: t.scene,
+            frames: t.frames,
+            scan: t.scan,
+        })
     }
 
     /// Reads a configuration file.

@@ -66,7 +66,11 @@ pub fn program(cfg: &SimConfig, method: Method) -> Result<Vec<Pattern>, Error> {
         }
     }
     if matches!(method, Method::Laser | Method::Board) && !cfg.rig.lasers.is_empty() {
-        seq.extend(rig::patterns::laser_sequence(cfg.rig.lasers.len()));
+        let lasers = rig::patterns::laser_sequence(cfg.rig.lasers.len());
+        // A scanner without laser-off frames (FabScanPi) captures the lasers alone; calibration keeps
+        // them (the board's background frame).
+        let keep_off = cfg.frames.laser_off || method == Method::Board;
+        seq.extend(lasers.into_iter().filter(|p| keep_off || *p != Pattern::LaserOff));
     } else if method == Method::Laser {
         return Err(Error::Setup("a laser scan needs a rig with [[lasers]]".into()));
     }
@@ -78,6 +82,8 @@ pub(crate) fn scan_rig(cfg: &SimConfig) -> rig::Rig {
     let mut r = cfg.rig.clone();
     if cfg.rig.turntable.is_some() && cfg.scene.platter_radius_mm > 0.0 {
         r.platter_radius_mm = Some(cfg.scene.platter_radius_mm);
+        // The object stands within its size above the platter: the working volume's height.
+        r.working_height_mm = Some(1.25 * cfg.scene.object_size_mm);
     }
     r
 }
@@ -137,7 +143,11 @@ pub(crate) fn write_view(
         let img = render_frame(g, cfg, light, frame_key(opts.seed, v, f));
         // Frames are plain writes: the view only counts once the manifest says it is complete.
         let path = out.join(&frame.file);
-        std::fs::write(&path, rig::image::png_bytes(&img, true)).map_err(|e| Error::File(rig::Error::io(&path, e)))
+        let bytes = match cfg.frames.jpeg_quality {
+            0 => rig::image::png_bytes(&img, true),
+            q => rig::image::jpeg_bytes(&img, q),
+        };
+        std::fs::write(&path, bytes).map_err(|e| Error::File(rig::Error::io(&path, e)))
     })?;
     if opts.truth {
         truth::write_view(&out.join(format!("truth/view_{v:03}")), g, pose, cfg.rig.camera.fx)?;
@@ -156,9 +166,24 @@ pub fn lights_for(cfg: &SimConfig, patterns: &[Pattern]) -> Vec<PatternLight> {
     }
 }
 
-/// The manifest of a fresh scan: every view incomplete, frame files named by view and pattern.
-pub(crate) fn fresh_manifest(method: Method, seed: u64, angles: &[Real], patterns: &[Pattern]) -> Manifest {
-    Manifest::fresh(method, "simulator", Some(seed), angles, patterns)
+/// The manifest of a fresh scan: every view incomplete, frame files named by view and pattern (`.jpg`
+/// where the config writes JPEG frames).
+pub(crate) fn fresh_manifest(
+    cfg: &SimConfig,
+    method: Method,
+    seed: u64,
+    angles: &[Real],
+    patterns: &[Pattern],
+) -> Manifest {
+    let mut m = Manifest::fresh(method, "simulator", Some(seed), angles, patterns);
+    if cfg.frames.jpeg_quality > 0 {
+        for f in m.views.iter_mut().flat_map(|v| v.frames.iter_mut()) {
+            if let Some(stem) = f.file.strip_suffix(".png") {
+                f.file = format!("{stem}.jpg");
+            }
+        }
+    }
+    m
 }
 
 /// Bytes the simulator holds per camera pixel while it renders a view: the pixel rays, every hit
@@ -201,7 +226,7 @@ pub fn simulate_scan(
     let mkdir = |p: &Path| std::fs::create_dir_all(p).map_err(|e| Error::File(rig::Error::io(p, e)));
     mkdir(out)?;
     let angles: Vec<Real> = (0..views).map(|v| v as Real * step).collect();
-    let fresh = fresh_manifest(opts.method, opts.seed, &angles, &patterns);
+    let fresh = fresh_manifest(cfg, opts.method, opts.seed, &angles, &patterns);
     let mut manifest = match Manifest::read(out) {
         Ok(old) if old.views.len() == views && old.seed == fresh.seed && old.method == fresh.method => old,
         Ok(_) => {

@@ -225,7 +225,52 @@ impl Scene {
             mount: Mount::Turntable,
             albedo,
         });
+        parts.extend(enclosure(cfg));
         Scene { parts }
+    }
+}
+
+/// The scanner's enclosure, where the config has one: a back wall facing the camera beyond the
+/// turntable, and a floor below the platter. Both are fixed (they do not turn with the platter) and
+/// both catch the lasers' and the projector's light, as a real scanner's walls and table do.
+fn enclosure(cfg: &crate::SimConfig) -> Vec<Part> {
+    let mut parts = Vec::new();
+    let Some(axis) = cfg.rig.turntable else { return parts };
+    let sc = &cfg.scene;
+    // The object frame at θ = 0: z up the axis, y from the camera toward the axis.
+    let camera_from_object = axis.camera_from_object(0.0);
+    let albedo = Albedo::Constant(sc.wall_albedo);
+    if sc.wall_distance_mm > 0.0 {
+        // Local z (the rectangle's normal) turned to face the camera (object −y).
+        let facing = rig::math::Rotation3::from_axis_angle(&Vector3::x_axis(), std::f64::consts::FRAC_PI_2);
+        let at = Isometry3::from_parts(
+            rig::math::Translation3::new(0.0, sc.wall_distance_mm, 0.0),
+            rig::math::UnitQuaternion::from_rotation_matrix(&facing),
+        );
+        parts.push(Part {
+            kind: PartKind::Other,
+            surface: Box::new(crate::surface::Rectangle { half_width: 1000.0, half_height: 1000.0 }),
+            pose: camera_from_object * at,
+            mount: Mount::Fixed,
+            albedo: albedo.clone(),
+        });
+    }
+    if sc.floor {
+        parts.push(Part {
+            kind: PartKind::Other,
+            surface: Box::new(crate::surface::Disc { radius: 2000.0 }),
+            pose: camera_from_object * Isometry3::translation(0.0, 0.0, -10.0),
+            mount: Mount::Fixed,
+            albedo,
+        });
+    }
+    parts
+}
+
+impl Scene {
+    /// Whether the scene holds parts other than the object and platter (an enclosure).
+    pub fn has_enclosure(&self) -> bool {
+        self.parts.iter().any(|p| p.kind == PartKind::Other)
     }
 }
 

@@ -194,7 +194,15 @@ pub type CalibReport = serde_json::Map<String, Value>;
 
 /// A rig of just a camera, for a rig file that does not exist yet.
 pub fn camera_only(name: &str, camera: PinholeCamera) -> Rig {
-    Rig { name: name.into(), camera, projector: None, lasers: Vec::new(), turntable: None, platter_radius_mm: None }
+    Rig {
+        name: name.into(),
+        camera,
+        projector: None,
+        lasers: Vec::new(),
+        turntable: None,
+        platter_radius_mm: None,
+        working_height_mm: None,
+    }
 }
 
 /// Calibrates from `positions` (see [`load`]), starting from `base` (kept where not calibrated; its
@@ -303,7 +311,7 @@ pub fn calibrate_rig(
         for (i, plane) in planes.into_iter().enumerate() {
             match rig.lasers.get_mut(i) {
                 Some(l) => l.plane = plane,
-                None => rig.lasers.push(Laser { name: format!("laser {i}"), plane }),
+                None => rig.lasers.push(Laser { name: format!("laser {i}"), plane, colour: Default::default() }),
             }
         }
         report.insert("lasers".into(), r);

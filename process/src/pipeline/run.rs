@@ -7,7 +7,7 @@ use super::report::{GridReport, LaserViewReport, ProcessReport, REPORT_SCHEMA_VE
 use super::stages::{self, ViewGrid};
 use super::{ProcessParams, Progress, Stage};
 use crate::Error;
-use crate::laser_line::{detect_line, triangulate_line};
+use crate::laser_line::{Background, RowWindows, extract_line, triangulate_line, working_volume_windows};
 use crate::placement::CropParams;
 use crate::projector_map::ProjectorMap;
 use crate::register_scan::ViewPose;
@@ -98,8 +98,15 @@ fn rig_part(part: &impl std::fmt::Debug) -> Value {
     Value::String(format!("{part:?}"))
 }
 
+/// Reads frames (PNG or JPEG) as grey, what decoding takes.
 fn load_frames(frames: &[(Pattern, PathBuf)]) -> Result<Vec<(Pattern, Image8)>, Error> {
-    let loaded = frames.par_iter().map(|(p, path)| Ok((*p, rig::image::read_png(path)?.to_gray())));
+    let loaded = frames.par_iter().map(|(p, path)| Ok((*p, rig::image::read_image(path)?.to_gray())));
+    loaded.collect::<Result<Vec<_>, rig::Error>>().map_err(Error::File)
+}
+
+/// Reads frames (PNG or JPEG) as captured, colour kept: a laser's colour picks its line out.
+fn load_colour_frames(frames: &[(Pattern, PathBuf)]) -> Result<Vec<(Pattern, Image8)>, Error> {
+    let loaded = frames.par_iter().map(|(p, path)| Ok((*p, rig::image::read_image(path)?)));
     loaded.collect::<Result<Vec<_>, rig::Error>>().map_err(Error::File)
 }
 
@@ -174,6 +181,8 @@ pub fn process_scan(
 
     let mut outputs: Vec<ViewOutput> = Vec::new();
     let mut triangulator: Option<Triangulator> = None;
+    // Each laser's working-volume windows, computed once per run where a view needs them.
+    let mut windows: BTreeMap<usize, Option<RowWindows>> = BTreeMap::new();
     for (done, &v) in complete.iter().enumerate() {
         let t0 = Instant::now();
         let view = &manifest.views[v];
@@ -307,19 +316,19 @@ pub fn process_scan(
                         rig: rig_path.clone(),
                     });
                 }
-                let off = frames
-                    .iter()
-                    .find(|f| f.0 == Pattern::LaserOff)
-                    .ok_or(Error::MissingFrame { view: v, frame: "laser_off" })?;
+                // FabScanPi and other scanners record no laser-off frame: the background is then
+                // estimated from the laser frame itself.
+                let off = frames.iter().find(|f| f.0 == Pattern::LaserOff);
                 for (k, laser) in rig.lasers.iter().enumerate() {
                     let Some(on) = frames.iter().find(|f| f.0 == Pattern::Laser { index: k }) else { continue };
                     let t = Instant::now();
-                    let pair = [off.clone(), on.clone()];
+                    let pair: Vec<(Pattern, PathBuf)> = off.into_iter().chain([on]).cloned().collect();
                     let fp = with_inputs(
                         Fingerprint::new(json!({
                             "laser": params.laser,
                             "rig.camera": rig_part(&rig.camera),
-                            "rig.laser": rig_part(&laser.plane),
+                            "rig.laser": rig_part(laser),
+                            "rig.working_volume": rig_part(&rig.working_volume()),
                         })),
                         &frame_hashes(&pair, scan)?,
                     );
@@ -328,8 +337,36 @@ pub fn process_scan(
                     let (hash, grid, lr) = match &decision {
                         Decision::Reuse(rec) => (rec.hash, None, recorded::<LaserViewReport>(&rec.report)),
                         Decision::Run(_) => {
-                            let imgs = load_frames(&pair)?;
-                            let (peaks, line) = detect_line(&imgs[1].1, &imgs[0].1, &params.laser);
+                            let imgs = load_colour_frames(&pair)?;
+                            let camera = (rig.camera.width, rig.camera.height);
+                            if let Some((_, img)) = imgs.iter().find(|(_, i)| (i.width, i.height) != camera) {
+                                let map = (img.width as usize, img.height as usize);
+                                let source = stages::StageError::MapSize { map, camera };
+                                return Err(Error::View { view: v, stage: Stage::Triangulate, source });
+                            }
+                            let frame = &imgs[imgs.len() - 1].1;
+                            let background = match off {
+                                Some(_) => Background::Frame(&imgs[0].1),
+                                None => Background::Estimated,
+                            };
+                            let windows = windows.entry(k).or_insert_with(|| {
+                                rig.working_volume().map(|vol| {
+                                    working_volume_windows(
+                                        &rig.camera,
+                                        &laser.plane,
+                                        &vol,
+                                        params.laser.volume_margin_mm,
+                                    )
+                                })
+                            });
+                            let (peaks, line) = extract_line(
+                                frame,
+                                background,
+                                laser.colour,
+                                windows.as_ref(),
+                                &params.laser,
+                                |_, _| true,
+                            );
                             let grid = triangulate_line(&peaks, &rig.camera, &laser.plane);
                             let lr = LaserViewReport { laser: k, line, points: grid.valid_count() };
                             let (grid, hash) = o.put_grid(&name, &grid, fp, &lr)?;

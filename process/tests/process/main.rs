@@ -3,6 +3,7 @@
 mod acceptance;
 mod denoise;
 mod icp;
+mod laser_real;
 mod mean_shift;
 mod reconstruct;
 mod register_fuse;

@@ -36,14 +36,23 @@ fn full_rig() -> Rig {
         camera: strong(),
         projector: Some(Projector { lens: PinholeCamera::ideal(1024, 768, 1500.0), from_camera, gamma: 2.2 }),
         lasers: vec![
-            rig::Laser { name: "left".into(), plane: LaserPlane::new(Vector3::new(0.866, 0.0, 0.5), 150.0).unwrap() },
-            rig::Laser { name: "right".into(), plane: LaserPlane::new(Vector3::new(-0.866, 0.0, 0.5), 150.0).unwrap() },
+            rig::Laser {
+                name: "left".into(),
+                plane: LaserPlane::new(Vector3::new(0.866, 0.0, 0.5), 150.0).unwrap(),
+                colour: rig::LaserColour::Red,
+            },
+            rig::Laser {
+                name: "right".into(),
+                plane: LaserPlane::new(Vector3::new(-0.866, 0.0, 0.5), 150.0).unwrap(),
+                colour: rig::LaserColour::Green,
+            },
         ],
         turntable: Some(TurntableAxis {
             point: Point3::new(0.5, 60.0, 400.0),
             direction: UnitVector3::new_normalize(Vector3::new(0.0, -1.0, -0.1)),
         }),
         platter_radius_mm: Some(90.0),
+        working_height_mm: Some(140.0),
     }
 }
 
