@@ -100,10 +100,15 @@ struct Kernel {
     density: Real,
 }
 
-fn build_kernels(points: &[Point3], tree: &PointTree, p: &MeanShiftParams) -> Vec<Kernel> {
+/// A neighbourhood whose second axis is below this fraction of its first is a line, not a patch of
+/// surface: a laser view's profile where the next view's lies farther than `k` neighbours reach.
+const LINE_AXIS_RATIO: Real = 0.1;
+
+fn build_kernels(points: &[Point3], normals: Option<&[Vector3]>, tree: &PointTree, p: &MeanShiftParams) -> Vec<Kernel> {
     points
         .par_iter()
-        .map(|pi| {
+        .enumerate()
+        .map(|(i, pi)| {
             let nb = tree.nearest_k(pi, p.k);
             // χ: a Gaussian of the distance to p_i over the neighbourhood's radius (eq. 3.2).
             let radius = (points[*nb.last().unwrap()] - pi).norm().max(1e-12);
@@ -131,7 +136,21 @@ fn build_kernels(points: &[Point3], tree: &PointTree, p: &MeanShiftParams) -> Ve
                 inv += v * v.transpose() / (lambda * p.kernel_scale * p.kernel_scale);
                 density /= lambda.sqrt() * p.kernel_scale;
             }
-            let normal = eig.eigenvectors.column(order[2]).into_owned();
+            let mut normal = eig.eigenvectors.column(order[2]).into_owned();
+            // On a line the covariance's smallest axis turns freely about it and says nothing of the
+            // surface: the input's normals (estimated across views when the cloud was merged) do.
+            if let Some(ns) = normals
+                && eig.eigenvalues[order[1]] < LINE_AXIS_RATIO * LINE_AXIS_RATIO * largest
+            {
+                let own = ns[i];
+                let mean = nb.iter().zip(&chi).fold(Vector3::zeros(), |a, (&j, w)| {
+                    let n = ns[j];
+                    a + if n.dot(&own) < 0.0 { -n } else { n } * *w
+                }) / sw;
+                if mean.norm() > 0.5 {
+                    normal = mean.normalize();
+                }
+            }
             let h = p.kernel_scale * largest.sqrt();
             Kernel { centre: Point3::from(centre), normal, inv, h, density }
         })
@@ -172,7 +191,7 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
     }
     let t = std::time::Instant::now();
     let tree = PointTree::new(&cloud.positions);
-    let kernels = build_kernels(&cloud.positions, &tree, params);
+    let kernels = build_kernels(&cloud.positions, cloud.normals.as_deref(), &tree, params);
     let centres: Vec<Point3> = kernels.iter().map(|k| k.centre).collect();
     let centre_tree = PointTree::new(&centres);
     let weight = |j: usize| cloud.confidence.as_ref().map_or(1.0, |c| c[j] as Real);

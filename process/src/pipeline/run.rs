@@ -578,8 +578,24 @@ fn scan_stages(
             let (mesh, rr) = stages::reconstruct(&input, &params.reconstruct)
                 .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
             // Checked before the mesh is written: unforced, an unsupported mesh leaves no mesh.ply.
-            let support = stages::check_support(&mesh, &input, params.force)
-                .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
+            let support = stages::check_support(&mesh, &input, params.force).map_err(|source| {
+                // A laser scan's surface between its lines is only what reconstruction makes up: too
+                // few views is the usual cause, and the fix.
+                let views = report.views.len();
+                let source = match (source, method) {
+                    (stages::StageError::Implausible { what, hint }, Method::Laser) => stages::StageError::Implausible {
+                        what,
+                        hint: format!(
+                            "this laser scan's {} views put its lines {:.1}° apart: take more views (`scan --views`, \
+                             `sim --views`); or {hint}",
+                            views,
+                            360.0 / views.max(1) as Real
+                        ),
+                    },
+                    (other, _) => other,
+                };
+                Error::Stage { stage: Stage::Reconstruct, source }
+            })?;
             report.warnings.extend(support);
             let bytes = rig::ply::mesh_to_bytes(&mesh.to_poly(), &o.opts);
             let hash = o.put(layout::MESH, &bytes, fp, &rr)?;

@@ -202,6 +202,10 @@ pub struct MergeReport {
 /// rows 0.3 mm apart): a dozen neighbours lie on one line, and their "plane" turns freely about it.
 pub const SENSOR_NORMAL_NEIGHBOURS: usize = 48;
 
+/// At most this many of a PCA normal's neighbours come from one view (one laser line): the rest
+/// from the lines beside it (see [`crate::normals::pca_normal_across_views`]).
+pub const SENSOR_NORMAL_PER_VIEW: usize = 16;
+
 /// The camera → object pose of a view at `angle_deg` (the identity without a turntable).
 pub fn turntable_pose(turntable: Option<&TurntableAxis>, angle_deg: Real) -> Isometry3 {
     turntable.map(|t| t.object_from_camera(angle_deg)).unwrap_or_else(Isometry3::identity)
@@ -226,7 +230,18 @@ pub fn fill_normals(cloud: &mut PointCloud, centres: &std::collections::HashMap<
             let p = &cloud.positions[i];
             let v = cloud.view_id.as_ref().map_or(0, |v| v[i]);
             let toward = centres.get(&v).map_or(Vector3::z(), |c| c - p);
-            crate::normals::pca_normal(&cloud.positions, &tree, SENSOR_NORMAL_NEIGHBOURS, p, toward)
+            match &cloud.view_id {
+                Some(ids) => crate::normals::pca_normal_across_views(
+                    &cloud.positions,
+                    &tree,
+                    SENSOR_NORMAL_NEIGHBOURS,
+                    SENSOR_NORMAL_PER_VIEW,
+                    |j| ids[j],
+                    p,
+                    toward,
+                ),
+                None => crate::normals::pca_normal(&cloud.positions, &tree, SENSOR_NORMAL_NEIGHBOURS, p, toward),
+            }
         })
         .collect();
     let normals = cloud.normals.as_mut().expect("set above");

@@ -9,6 +9,39 @@ use rig::math::{Point2, Real};
 use rig::scan_folder::Manifest;
 use sim::{Albedo, ScanOptions, Scene, SimConfig, simulate_scan};
 
+/// A simulated laser scan of the vase, processed as `scanrig process` runs it up to the mesh
+/// (remeshing is not what these tests check).
+struct Simulated {
+    vase: rig::TriMesh,
+    diag: Real,
+    scene: Scene,
+    scan: fixtures::TempDir,
+    out: std::path::PathBuf,
+}
+
+fn simulate_and_mesh(cfg: &SimConfig, name: &str, seed: u64, truth: bool) -> Simulated {
+    let vase = sim::fluted_vase(cfg.scene.object_size_mm);
+    let diag = vase.bounding_box().unwrap().diagonal();
+    let scene = Scene::on_turntable(cfg, &vase, Albedo::Constant(cfg.scene.object_albedo));
+    let scan = fixtures::temp_dir(name);
+    let opts = ScanOptions { method: Method::Laser, seed, truth };
+    simulate_scan(cfg, &scene, Some(&vase), opts, &scan, |_, _| {}).unwrap();
+    let out = scan.join("processed");
+    let params = ProcessParams { until: process::Stage::Reconstruct, ..Default::default() };
+    process_scan(&scan, &out, &params, |_, _, _| {}).unwrap();
+    Simulated { vase, diag, scene, scan, out }
+}
+
+/// The mesh's vertices against the true surface (mm): median and 95th percentile, above the
+/// platter's top 3 mm (the base the data never saw is closed by reconstruction, issue 22).
+fn mesh_to_truth(out: &std::path::Path, truth: &rig::TriMesh) -> (Real, Real) {
+    let mesh = rig::ply::read_mesh(&out.join("mesh.ply")).unwrap().triangulate();
+    let index = MeshDistance::new(truth, 2.0);
+    let mut d: Vec<Real> = mesh.vertices.iter().filter(|v| v.z > 3.0).map(|v| index.distance_up_to(v, 50.0)).collect();
+    assert!(d.len() > 1000, "{} mesh vertices above the base", d.len());
+    (percentile(&mut d, 0.5), percentile(&mut d, 0.95))
+}
+
 fn percentile(v: &mut [Real], q: Real) -> Real {
     v.sort_by(|a, b| a.total_cmp(b));
     v[((v.len() - 1) as Real * q).round() as usize]
@@ -18,25 +51,11 @@ fn percentile(v: &mut [Real], q: Real) -> Real {
 fn realistic_laser_frames_give_the_object_and_never_the_wall() {
     let cfg = SimConfig::builtin("realistic").unwrap();
     assert!(!cfg.frames.laser_off && cfg.frames.colour && cfg.frames.jpeg_quality > 0);
-    let vase = sim::fluted_vase(cfg.scene.object_size_mm);
-    let diag = vase.bounding_box().unwrap().diagonal();
-    let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(cfg.scene.object_albedo));
+    let Simulated { vase, diag, scene, scan, out } = simulate_and_mesh(&cfg, "process-laser-realistic", 5, true);
     assert!(scene.has_enclosure());
-    let scan = fixtures::temp_dir("process-laser-realistic");
-    simulate_scan(
-        &cfg,
-        &scene,
-        Some(&vase),
-        ScanOptions { method: Method::Laser, seed: 5, truth: true },
-        &scan,
-        |_, _| {},
-    )
-    .unwrap();
     let m = Manifest::read(&scan).unwrap();
     assert!(m.views[0].frames.iter().all(|f| f.file.ends_with(".jpg") && f.pattern != rig::Pattern::LaserOff));
-    let out = scan.join("processed");
-    let params = ProcessParams { until: process::Stage::Merge, ..Default::default() };
-    process_scan(&scan, &out, &params, |_, _, _| {}).unwrap();
+    let (median_mesh, p95_mesh) = mesh_to_truth(&out, &vase);
 
     // Line centres against the truth crossings on the object, row by row.
     let (w, h) = (cfg.rig.camera.width as usize, cfg.rig.camera.height as usize);
@@ -105,8 +124,56 @@ fn realistic_laser_frames_give_the_object_and_never_the_wall() {
         100.0 * near,
         100.0 * median / diag
     );
+    eprintln!(
+        "realistic laser mesh: median {:.4} % and p95 {:.4} % of the diagonal from the truth",
+        100.0 * median_mesh / diag,
+        100.0 * p95_mesh / diag
+    );
     assert!(frac >= 0.95, "a point in {frac} of the object's lit rows");
+    // p95 ≤ 0.5 % is not met yet (the unlit top, see the README example's test).
+    assert!(median_mesh <= 1e-3 * diag && p95_mesh <= 0.035 * diag, "mesh {median_mesh} / {p95_mesh} mm");
     assert!(median_px <= 0.1 && p99_px <= 0.5, "centre errors median {median_px} px, p99 {p99_px} px");
     assert!(near >= 0.99, "{near} of the points within 0.5 % of the diagonal of the truth");
     assert!(median <= 5e-4 * diag, "median error {median} mm");
+}
+
+/// The README's laser example — `scanrig sim --config laser`, then `scanrig process` — gives the
+/// object (it used to give a 130 mm box, exit 0), and a scan too sparse to mesh fails saying what to
+/// change.
+#[test]
+fn the_readme_laser_example_meshes_the_object_and_a_sparse_scan_says_take_more_views() {
+    let cfg = SimConfig::builtin("laser").unwrap();
+    assert_eq!(cfg.scan.views, 36);
+    // `_scan` holds the folder until the test ends.
+    let Simulated { vase, diag, scene, scan: _scan, out } = simulate_and_mesh(&cfg, "process-laser-readme", 1, false);
+    let params = ProcessParams { until: process::Stage::Reconstruct, ..Default::default() };
+    let (median, p95) = mesh_to_truth(&out, &vase);
+    eprintln!(
+        "README laser example: mesh median {:.4} % and p95 {:.4} % of the diagonal from the truth",
+        100.0 * median / diag,
+        100.0 * p95 / diag
+    );
+    // Issue 20 asks p95 ≤ 0.5 %: not yet — the top, which the lasers never light (they sit below it),
+    // is closed at the reconstruction grid's edge 5 mm above the rim (README, status). Meanwhile this
+    // keeps what holds: the median, and no box.
+    assert!(median <= 1e-3 * diag, "mesh median {median} mm from the truth");
+    assert!(p95 <= 0.03 * diag, "mesh p95 {p95} mm from the truth");
+
+    // Six views: lines 60° apart.
+    let sparse_cfg = SimConfig { scan: sim::config::ScanConfig { views: 6, ..cfg.scan.clone() }, ..cfg };
+    let sparse = fixtures::temp_dir("process-laser-sparse");
+    simulate_scan(
+        &sparse_cfg,
+        &scene,
+        None,
+        ScanOptions { method: Method::Laser, seed: 1, truth: false },
+        &sparse,
+        |_, _| {},
+    )
+    .unwrap();
+    let err = process_scan(&sparse, &sparse.join("processed"), &params, |_, _, _| {}).unwrap_err();
+    let msg = format!("{err}");
+    eprintln!("6 views: {msg}");
+    assert!(msg.contains("take more views"), "{msg}");
+    assert!(!sparse.join("processed/mesh.ply").exists(), "no mesh is written");
 }
