@@ -111,20 +111,6 @@ pub struct LineReport {
     pub estimated_background: bool,
 }
 
-impl LineReport {
-    /// Adds another frame's counts.
-    pub fn add(&mut self, o: &LineReport) {
-        self.found += o.found;
-        self.faint += o.faint;
-        self.saturated += o.saturated;
-        self.doubled += o.doubled;
-        self.too_wide += o.too_wide;
-        self.outside += o.outside;
-        self.unsearched += o.unsearched;
-        self.estimated_background |= o.estimated_background;
-    }
-}
-
 /// Lines wider than this at half their height (pixels) are centred by their centre of mass.
 const WIDE_LINE_PX: Real = 4.0;
 
@@ -188,19 +174,19 @@ fn centre(s: &[f32], m: usize, p: &LaserParams) -> Real {
     if sw > 0.0 { sum / sw } else { m as Real }
 }
 
-/// Every peak of a row's signal within `[lo, hi]`: local maxima above `min_peak` that are the largest
-/// within `±window`, leftmost of a plateau.
-fn candidates(s: &[f32], raw: &[u8], lo: usize, hi: usize, p: &LaserParams, out: &mut Vec<Candidate>) {
+/// Every peak of a row's signal: local maxima above `min_peak` that are the largest within
+/// `±window`, leftmost of a plateau.
+fn candidates(s: &[f32], raw: &[u8], p: &LaserParams, out: &mut Vec<Candidate>) {
     out.clear();
-    let min = p.min_peak as f32;
-    let mut c = lo;
+    let (min, hi) = (p.min_peak as f32, s.len() - 1);
+    let mut c = 0;
     while c <= hi {
         let v = s[c];
         if v < min {
             c += 1;
             continue;
         }
-        let (a, b) = (c.saturating_sub(p.window).max(lo), (c + p.window).min(hi));
+        let (a, b) = (c.saturating_sub(p.window), (c + p.window).min(hi));
         // The largest in its window, and the first of equals (a clipped top is one peak).
         let is_peak = (a..=b).all(|k| if k < c { s[k] < v } else { s[k] <= v });
         if !is_peak {
@@ -260,16 +246,12 @@ pub fn extract_line(
     let finds: Vec<RowFind> = (0..h)
         .into_par_iter()
         .map_init(
-            || (vec![0.0f32; w], vec![0u8; w], Vec::new(), Vec::new()),
-            |(s, raw, all, inside): &mut (Vec<f32>, Vec<u8>, Vec<Candidate>, Vec<Candidate>), r| {
-                let (lo, hi) = match windows {
-                    Some(win) => match win.row(r) {
-                        Some(x) => x,
-                        None => return RowFind::Unsearched,
-                    },
-                    None => (0, w - 1),
-                };
-                signal::row_signal(frame, background, colour, r, p.background_px, s);
+            || (vec![0.0f32; w], vec![0u8; w], Vec::new(), signal::Scratch::default()),
+            |(s, raw, all, scratch): &mut (Vec<f32>, Vec<u8>, Vec<Candidate>, signal::Scratch), r| {
+                if windows.is_some_and(|win| win.row(r).is_none()) {
+                    return RowFind::Unsearched;
+                }
+                signal::row_signal(frame, background, colour, r, p.background_px, s, scratch);
                 for (c, (x, v)) in raw.iter_mut().zip(s.iter_mut()).enumerate() {
                     *x = signal::raw_max(frame, r * w + c);
                     if !keep(c, r) {
@@ -277,9 +259,9 @@ pub fn extract_line(
                     }
                 }
                 // Candidates over the whole row, so one outside the window is known to be there.
-                candidates(s, raw, 0, w - 1, p, all);
-                inside.clear();
-                inside.extend(all.iter().filter(|k| k.col >= lo as Real - 0.5 && k.col <= hi as Real + 0.5));
+                candidates(s, raw, p, all);
+                let inside: Vec<Candidate> =
+                    all.iter().copied().filter(|k| windows.is_none_or(|win| win.contains(r, k.col))).collect();
                 if inside.is_empty() {
                     return if all.is_empty() { RowFind::Faint } else { RowFind::Outside };
                 }

@@ -37,17 +37,27 @@ pub fn raw_max(img: &Image8, i: usize) -> u8 {
     if img.channels == 3 { img.data[3 * i..3 * i + 3].iter().copied().max().unwrap_or(0) } else { img.data[i] }
 }
 
+/// Scratch rows for [`row_signal`], reused across the rows a thread handles (its hot loop
+/// allocates nothing).
+#[derive(Debug, Default)]
+pub struct Scratch {
+    pre: Vec<f32>,
+    suf: Vec<f32>,
+    eroded: Vec<f32>,
+    opened: Vec<f32>,
+}
+
 /// Running minimum (or maximum) of `src` over windows of `±half`, in O(n) whatever the window (van
 /// Herk–Gil–Werman: block-wise prefix and suffix extrema).
-fn running_extreme(src: &[f32], half: usize, out: &mut [f32], max: bool) {
+fn running_extreme(src: &[f32], half: usize, out: &mut [f32], max: bool, pre: &mut Vec<f32>, suf: &mut Vec<f32>) {
     let n = src.len();
     let pick = |a: f32, b: f32| if max { a.max(b) } else { a.min(b) };
     let k = 2 * half + 1;
     if n == 0 {
         return;
     }
-    let mut pre = vec![0.0f32; n];
-    let mut suf = vec![0.0f32; n];
+    pre.resize(n, 0.0);
+    suf.resize(n, 0.0);
     for i in 0..n {
         pre[i] = if i % k == 0 { src[i] } else { pick(pre[i - 1], src[i]) };
     }
@@ -69,6 +79,7 @@ pub fn row_signal(
     r: usize,
     half: usize,
     out: &mut [f32],
+    scratch: &mut Scratch,
 ) {
     let w = frame.width as usize;
     for (c, o) in out.iter_mut().enumerate() {
@@ -81,11 +92,12 @@ pub fn row_signal(
             }
         }
         Background::Estimated => {
-            let mut eroded = vec![0.0f32; w];
-            let mut opened = vec![0.0f32; w];
-            running_extreme(out, half, &mut eroded, false);
-            running_extreme(&eroded, half, &mut opened, true);
-            for (o, b) in out.iter_mut().zip(&opened) {
+            let Scratch { pre, suf, eroded, opened } = scratch;
+            eroded.resize(w, 0.0);
+            opened.resize(w, 0.0);
+            running_extreme(out, half, eroded, false, pre, suf);
+            running_extreme(eroded, half, opened, true, pre, suf);
+            for (o, b) in out.iter_mut().zip(opened.iter()) {
                 *o = (*o - b).max(0.0);
             }
         }
@@ -101,7 +113,7 @@ mod tests {
         let src: Vec<f32> = (0..97).map(|i| ((i * 37 % 23) as f32).sin() * 10.0).collect();
         for half in [0, 1, 3, 8, 60] {
             let mut fast = vec![0.0; src.len()];
-            running_extreme(&src, half, &mut fast, false);
+            running_extreme(&src, half, &mut fast, false, &mut Vec::new(), &mut Vec::new());
             for (i, &f) in fast.iter().enumerate() {
                 let naive = src[i.saturating_sub(half)..=(i + half).min(src.len() - 1)]
                     .iter()
@@ -126,7 +138,7 @@ mod tests {
             .collect();
         let img = Image8::gray(w as u32, 1, row);
         let mut out = vec![0.0; w];
-        row_signal(&img, Background::Estimated, LaserColour::Red, 0, 10, &mut out);
+        row_signal(&img, Background::Estimated, LaserColour::Red, 0, 10, &mut out, &mut Scratch::default());
         assert!(out[140] > 110.0, "the line keeps its height: {}", out[140]);
         // A broad glow leaves only the curvature of its top within the window (60·(1 − e^{−½(10/25)²}) ≈ 4.6).
         assert!(out[..120].iter().all(|&v| v < 6.0), "the glow and slope are gone");

@@ -98,6 +98,42 @@ fn rig_part(part: &impl std::fmt::Debug) -> Value {
     Value::String(format!("{part:?}"))
 }
 
+/// Where laser `laser`'s line is searched: the image rows of the working volume. A rig that does not
+/// know its volume is searched whole, with a warning; a plane that meets the volume nowhere in view is
+/// a rig of another scanner (or a mistyped plane) and fails unless `--force`.
+fn laser_windows(
+    rig: &Rig,
+    laser: &rig::Laser,
+    params: &ProcessParams,
+    warnings: &mut Vec<String>,
+) -> Result<Option<RowWindows>, Error> {
+    let Some(volume) = rig.working_volume() else {
+        warnings.push(format!(
+            "laser `{}`: the rig has no working volume ([turntable] with platter_radius_mm), so its line is searched \
+             in the whole image and a reflection on the scanner's walls can be taken for the object",
+            laser.name
+        ));
+        return Ok(None);
+    };
+    let found = working_volume_windows(&rig.camera, &laser.plane, &volume, params.laser.volume_margin_mm);
+    if found.rows_open() > 0 {
+        return Ok(Some(found));
+    }
+    let what = format!(
+        "laser `{}`'s plane meets the working volume (platter radius {} mm, height {} mm above the turntable axis \
+         point) nowhere in the camera's view",
+        laser.name, volume.radius_mm, volume.height_mm
+    );
+    if params.force {
+        warnings.push(format!("{what}: its line is searched in the whole image (--force)"));
+        return Ok(None);
+    }
+    let hint = "check the laser's normal and distance_mm and the [turntable] in rig.toml (a rig of another scanner?); \
+                --force searches the whole image"
+        .into();
+    Err(Error::Stage { stage: Stage::Triangulate, source: stages::StageError::Implausible { what, hint } })
+}
+
 /// Reads frames (PNG or JPEG) as grey, what decoding takes.
 fn load_frames(frames: &[(Pattern, PathBuf)]) -> Result<Vec<(Pattern, Image8)>, Error> {
     let loaded = frames.par_iter().map(|(p, path)| Ok((*p, rig::image::read_image(path)?.to_gray())));
@@ -183,6 +219,8 @@ pub fn process_scan(
     let mut triangulator: Option<Triangulator> = None;
     // Each laser's working-volume windows, computed once per run where a view needs them.
     let mut windows: BTreeMap<usize, Option<RowWindows>> = BTreeMap::new();
+    // Per laser, the views whose capture lacks its frame.
+    let mut missing_laser_frames: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     for (done, &v) in complete.iter().enumerate() {
         let t0 = Instant::now();
         let view = &manifest.views[v];
@@ -320,7 +358,10 @@ pub fn process_scan(
                 // estimated from the laser frame itself.
                 let off = frames.iter().find(|f| f.0 == Pattern::LaserOff);
                 for (k, laser) in rig.lasers.iter().enumerate() {
-                    let Some(on) = frames.iter().find(|f| f.0 == Pattern::Laser { index: k }) else { continue };
+                    let Some(on) = frames.iter().find(|f| f.0 == Pattern::Laser { index: k }) else {
+                        missing_laser_frames.entry(k).or_default().push(v);
+                        continue;
+                    };
                     let t = Instant::now();
                     let pair: Vec<(Pattern, PathBuf)> = off.into_iter().chain([on]).cloned().collect();
                     let fp = with_inputs(
@@ -349,16 +390,12 @@ pub fn process_scan(
                                 Some(_) => Background::Frame(&imgs[0].1),
                                 None => Background::Estimated,
                             };
-                            let windows = windows.entry(k).or_insert_with(|| {
-                                rig.working_volume().map(|vol| {
-                                    working_volume_windows(
-                                        &rig.camera,
-                                        &laser.plane,
-                                        &vol,
-                                        params.laser.volume_margin_mm,
-                                    )
-                                })
-                            });
+                            let windows = match windows.entry(k) {
+                                std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
+                                std::collections::btree_map::Entry::Vacant(e) => {
+                                    e.insert(laser_windows(&rig, laser, params, &mut report.warnings)?)
+                                }
+                            };
                             let (peaks, line) = extract_line(
                                 frame,
                                 background,
@@ -386,6 +423,19 @@ pub fn process_scan(
         report.views.push(vr);
         o.records.save()?;
         progress(Stage::Triangulate.min(params.until), done + 1, complete.len());
+    }
+    // A laser the capture program never switched on is a choice (one laser of two); one whose frame
+    // some views lack is a capture that lost frames.
+    for (k, views) in &missing_laser_frames {
+        if views.len() < complete.len() {
+            report.warnings.push(format!(
+                "laser {k} (`{}`) has no frame in {} of {} views ({}): those views lack its line",
+                rig.lasers[*k].name,
+                views.len(),
+                complete.len(),
+                views.iter().take(8).map(|v| v.to_string()).collect::<Vec<_>>().join(", ")
+            ));
+        }
     }
 
     let crop = CropParams { radius_mm: params.crop.radius_mm.or(rig.platter_radius_mm), ..params.crop };

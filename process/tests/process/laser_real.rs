@@ -177,3 +177,38 @@ fn the_readme_laser_example_meshes_the_object_and_a_sparse_scan_says_take_more_v
     assert!(msg.contains("take more views"), "{msg}");
     assert!(!sparse.join("processed/mesh.ply").exists(), "no mesh is written");
 }
+
+/// A rig whose laser plane misses the working volume is refused by name (a plane typed wrong, or
+/// another scanner's rig), not searched in silence; a view that lost a laser's frame is reported.
+#[test]
+fn a_laser_plane_outside_the_working_volume_is_refused_and_a_lost_frame_reported() {
+    let mut cfg = SimConfig::builtin("laser").unwrap().with_camera_resolution(320, 240);
+    cfg.scan.views = 4;
+    let vase = sim::fluted_vase(cfg.scene.object_size_mm);
+    let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(cfg.scene.object_albedo));
+    let scan = fixtures::temp_dir("process-laser-wrong-plane");
+    let opts = ScanOptions { method: Method::Laser, seed: 3, truth: false };
+    simulate_scan(&cfg, &scene, None, opts, &scan, |_, _| {}).unwrap();
+    let good = rig::Rig::read(&scan.join("rig.toml")).unwrap();
+    let mut wrong = good.clone();
+    wrong.lasers[1].plane = rig::LaserPlane::new(wrong.lasers[1].plane.normal.into_inner(), 900.0).unwrap();
+    wrong.write(&scan.join("rig.toml")).unwrap();
+    let params = ProcessParams { until: process::Stage::Merge, ..Default::default() };
+    let err = process_scan(&scan, &scan.join("processed"), &params, |_, _, _| {}).unwrap_err().to_string();
+    assert!(err.contains("laser `right`") && err.contains("working volume") && err.contains("--force"), "{err}");
+    let forced = ProcessParams { force: true, ..params.clone() };
+    let report = process_scan(&scan, &scan.join("processed"), &forced, |_, _, _| {}).unwrap();
+    assert!(report.warnings.iter().any(|w| w.contains("searched in the whole image")), "{:?}", report.warnings);
+
+    // The right rig again, and view 2 without laser 1's frame.
+    good.write(&scan.join("rig.toml")).unwrap();
+    let mut m = Manifest::read(&scan).unwrap();
+    m.views[2].frames.retain(|f| f.pattern != rig::Pattern::Laser { index: 1 });
+    m.write(&scan).unwrap();
+    let report = process_scan(&scan, &scan.join("processed2"), &params, |_, _, _| {}).unwrap();
+    assert!(
+        report.warnings.iter().any(|w| w.contains("laser 1 (`right`) has no frame in 1 of 4 views (2)")),
+        "{:?}",
+        report.warnings
+    );
+}
