@@ -406,6 +406,10 @@ pub struct ProcessArgs {
     /// Skip the denoising stage.
     #[arg(long)]
     pub no_denoise: bool,
+    /// Reconstruct the fused cloud as it is, without flat caps over its open base (on the platter)
+    /// and top (at the data's highest level).
+    #[arg(long)]
+    pub no_close: bool,
     /// Decoding (as `scanrig decode`).
     #[command(flatten, next_help_heading = "Decoding")]
     pub decode: DecodeOpts,
@@ -519,6 +523,10 @@ pub struct ReconstructArgs {
     /// Write the mesh even when it lies far from its cloud (it is still warned about).
     #[arg(long)]
     pub force: bool,
+    /// Cap the cloud's open base and top flat first, as `process` does: for a cloud in a turntable
+    /// scan's object frame (z up, the platter at z = 0), such as `process` writes.
+    #[arg(long)]
+    pub close: bool,
 }
 
 #[derive(clap::Args, Debug)]

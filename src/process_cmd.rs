@@ -19,6 +19,7 @@ pub fn params(args: &ProcessArgs) -> Result<ProcessParams> {
         crop: args.crop.params()?,
         register: args.register.params()?,
         fuse: args.fuse.params()?,
+        close: if args.no_close { None } else { defaults.close },
         reconstruct: args.reconstruct.params()?,
         remesh: args.remesh.params()?,
         ..defaults
@@ -115,6 +116,16 @@ pub fn print_summary(o: &mut impl Write, out: &Path, report: &ProcessReport) -> 
             f.points_removed,
             status(s)
         )?;
+    }
+    if let Some(s) = &report.close {
+        let caps: Vec<String> = [("base", &s.report.bottom), ("top", &s.report.top)]
+            .iter()
+            .filter_map(|(what, cap)| {
+                cap.map(|c| format!("{what} at z = {:.2} mm ({} samples, {:.0} mm²)", c.z, c.points, c.area))
+            })
+            .collect();
+        let caps = if caps.is_empty() { "nothing open".to_string() } else { caps.join(", ") };
+        writeln!(o, "  closed: {caps} ({})", status(s))?;
     }
     if let Some(s) = &report.reconstruct {
         let r = &s.report;

@@ -10,7 +10,16 @@ use std::io::Write;
 pub fn run(args: &ReconstructArgs) -> Result<()> {
     let params = args.reconstruct.params()?;
     crate::outputs::distinct(&[("--out", Some(&args.out)), ("input", Some(&args.input))])?;
-    let cloud = rig::read_cloud(&args.input)?;
+    let mut cloud = rig::read_cloud(&args.input)?;
+    if args.close {
+        let (closed, r) = process::reconstruct::closing::close_openings(&cloud, &Default::default());
+        for (what, cap) in [("base", r.bottom), ("top", r.top)] {
+            if let Some(c) = cap {
+                eprintln!("closed the {what} at z = {:.3} with {} samples", c.z, c.points);
+            }
+        }
+        cloud = closed;
+    }
     let opts = crate::outputs::write_options_like(&args.input)?;
     let start = std::time::Instant::now();
     let context = || format!("reconstructing {}", args.input.display());

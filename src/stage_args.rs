@@ -194,6 +194,11 @@ pub struct ReconstructOpts {
     /// cannot hold).
     #[arg(long, default_value_t = FftParams::default().memory_budget as f64 / 1e9)]
     pub memory_budget: f64,
+    /// Global method: the Gaussian low-pass's standard deviation, in grid cells (default 0.5). Sparse
+    /// samples — laser lines several cells apart — want it near half their gap, or the surface sags
+    /// between them.
+    #[arg(long)]
+    pub smoothing_cells: Option<f64>,
 }
 
 impl ReconstructOpts {
@@ -206,14 +211,23 @@ impl ReconstructOpts {
                 if self.error.is_some() {
                     bail!("--error steers AdFFT's octree; the global method (--method fft) has none");
                 }
+                if let Some(s) = self.smoothing_cells
+                    && !(s > 0.0 && s <= 64.0)
+                {
+                    bail!("--smoothing-cells must be a positive number of cells up to 64, got {s}");
+                }
                 let d = FftParams::default();
                 ReconstructParams::Fft(FftParams {
                     depth: self.depth.unwrap_or(d.depth),
+                    smoothing_cells: self.smoothing_cells.unwrap_or(d.smoothing_cells),
                     memory_budget: (self.memory_budget * 1e9) as u64,
                     ..d
                 })
             }
             MethodArg::Adfft => {
+                if self.smoothing_cells.is_some() {
+                    bail!("--smoothing-cells is the global method's (--method fft); AdFFT smooths per octree cell");
+                }
                 if let Some(e) = self.error
                     && !(e > 0.0 && e.is_finite())
                 {

@@ -7,7 +7,7 @@
 //!   inverse camera placed by `X_p = R·X_c + t`); [`LaserPlane`]s (`n·X = d`); a [`TurntableAxis`] and
 //!   the pose of the view at angle θ; all gathered in a [`Rig`] that reads and writes TOML.
 //! - **Geometry**: [`RangeGrid`] (one scan on its pixel grid, with validity, normals, confidence and its
-//!   [`Sensor`]), [`PointCloud`], [`TriMesh`] and [`PolyMesh`] (quads and n-gons).
+//!   [`Sensor`]), [`SparseView`] (one scan as its points and their pixels: a laser line), [`PointCloud`], [`TriMesh`] and [`PolyMesh`] (quads and n-gons).
 //! - **Files**: [`ply`] (every variant in, binary or ASCII out), [`obj`], [`off`], [`opencv_yaml`]
 //!   (camera intrinsics as OpenCV writes them), and [`read_mesh`]/[`write_mesh`] choosing by extension.
 //!   Errors name the file and the line, element entry or field ([`Error`]).
@@ -62,6 +62,10 @@ pub use rig_file::{Laser, Rig};
 /// Range grids.
 pub mod range_grid;
 pub use range_grid::{RangeGrid, Sensor};
+
+/// Sparse views: measured points with their pixels.
+pub mod sparse_view;
+pub use sparse_view::SparseView;
 
 /// Point clouds and bounding boxes.
 pub mod point_cloud;

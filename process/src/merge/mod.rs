@@ -1,9 +1,9 @@
-//! Placing views by their turntable pose: camera-frame range grids into the object frame, the turntable
+//! Placing views by their turntable pose: camera-frame range grids and sparse views into the object frame, the turntable
 //! and background cropped away, and the views merged into one cloud that remembers where each point
 //! came from.
 
 use rig::math::{Isometry3, Real, Vector3};
-use rig::{PointCloud, RangeGrid};
+use rig::{PointCloud, RangeGrid, SparseView};
 use serde::Serialize;
 
 /// The cylinder of the object frame that holds the object: above the platter, within its radius.
@@ -51,6 +51,21 @@ pub fn place_view(grid: &RangeGrid, object_from_camera: &Isometry3, crop: &CropP
         }
         out.confidence.as_mut().unwrap().push(grid.confidence.as_ref().map_or(1.0, |c| c[i]));
         out.view_id.as_mut().unwrap().push(view_id);
+    }
+    out
+}
+
+/// A sparse view's points in the object frame, cropped, with confidence and the view id (no normals:
+/// a line has none of its own; merging gives them).
+pub fn place_sparse(view: &SparseView, object_from_camera: &Isometry3, crop: &CropParams, view_id: u32) -> PointCloud {
+    let mut out = PointCloud { confidence: Some(Vec::new()), view_id: Some(Vec::new()), ..Default::default() };
+    for (p, &c) in view.points.iter().zip(&view.confidence) {
+        let p = object_from_camera * p;
+        if crop.keeps(p.x, p.y, p.z) {
+            out.positions.push(p);
+            out.confidence.as_mut().unwrap().push(c);
+            out.view_id.as_mut().unwrap().push(view_id);
+        }
     }
     out
 }

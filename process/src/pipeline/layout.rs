@@ -5,7 +5,7 @@
 //! stages.json                  how each output was made (see `records`): reuse is decided there
 //! decode/view_NNN.npy          structured light: (H, W, 3) projector u, v, confidence (NaN undecoded)
 //! views/view_NNN.ply           the view's range grid (camera frame, mm; Stanford range_grid layout)
-//! views/view_NNN_laserK.ply    laser scans: one grid per laser
+//! views/view_NNN_laserK.ply    laser scans: one sparse view (points and their pixels) per laser
 //! denoised/view_NNN.ply        the range grid after non-local denoising (structured light)
 //! preview/view_NNN_depth.png   colour depth map; preview/view_NNN_projector.png the decoded map
 //! merged.ply                   all views in the object frame, cropped to the platter cylinder, with
@@ -13,7 +13,8 @@
 //! registered.ply               the views again, placed by multi-view ICP from their turntable poses
 //! registered.poses.json        each view's refined pose and how far it moved
 //! fused.ply                    mean-shift fusion of the registered (else merged) cloud
-//! mesh.ply                     watertight surface of the fused cloud (FFT or AdFFT, ch. 5)
+//! closed.ply                   the fused cloud with flat caps over its open base and top
+//! mesh.ply                     watertight surface of the closed cloud (FFT or AdFFT, ch. 5)
 //! quads.obj                    quad remesh of mesh.ply along a harmonic field's streamlines (ch. 6)
 //! report.json                  what every stage did (`ProcessReport`), merged stage by stage
 //! ```
@@ -38,6 +39,8 @@ pub const POSES: &str = "registered.poses.json";
 pub const FUSED: &str = "fused.ply";
 /// The watertight mesh.
 pub const MESH: &str = "mesh.ply";
+/// The fused cloud with caps over its open base and top: what reconstruction meshes.
+pub const CLOSED: &str = "closed.ply";
 /// The quad mesh.
 pub const QUADS: &str = "quads.obj";
 /// The report.
@@ -68,7 +71,7 @@ impl Layout {
     pub fn grid(v: usize) -> String {
         format!("views/view_{v:03}.ply")
     }
-    /// A laser view's range grid for laser `k`.
+    /// A laser view's sparse view (its line's points) for laser `k`.
     pub fn laser_grid(v: usize, k: usize) -> String {
         format!("views/view_{v:03}_laser{k}.ply")
     }

@@ -20,6 +20,7 @@ pub use run::{process_scan, register_processed};
 
 use crate::laser_line::LaserParams;
 use crate::placement::CropParams;
+use crate::reconstruct::closing::CloseParams;
 use crate::register_scan::RegisterParams;
 use crate::remesh::RemeshParams;
 use crate::structured_light::DecodeParams;
@@ -109,6 +110,9 @@ pub struct ProcessParams {
     pub register: RegisterParams,
     /// Mean-shift fusion.
     pub fuse: FuseParams,
+    /// Flat caps over the fused cloud's open base and top before reconstruction (object frame);
+    /// `None` reconstructs the cloud as fused.
+    pub close: Option<CloseParams>,
     /// Reconstruction.
     pub reconstruct: ReconstructParams,
     /// Quad remeshing.
@@ -133,6 +137,7 @@ impl Default for ProcessParams {
             crop: CropParams::default(),
             register: RegisterParams::default(),
             fuse: FuseParams::default(),
+            close: Some(CloseParams::default()),
             reconstruct: ReconstructParams::default(),
             remesh: RemeshParams::default(),
             until: Stage::Remesh,

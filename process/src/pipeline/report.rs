@@ -99,6 +99,9 @@ pub struct ProcessReport {
     /// Fusion.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fuse: Option<Section<FuseReport>>,
+    /// Closing the fused cloud's open base and top before reconstruction.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub close: Option<Section<crate::reconstruct::closing::CloseReport>>,
     /// Reconstruction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reconstruct: Option<Section<ReconstructReport>>,
@@ -132,6 +135,7 @@ impl ProcessReport {
         self.merge = self.merge.take().or(old.merge);
         self.register = self.register.take().or(old.register);
         self.fuse = self.fuse.take().or(old.fuse);
+        self.close = self.close.take().or(old.close);
         self.reconstruct = self.reconstruct.take().or(old.reconstruct);
         self.remesh = self.remesh.take().or(old.remesh);
         for o in old.outputs {

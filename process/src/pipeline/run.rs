@@ -4,7 +4,7 @@ use super::layout::{self, Layout};
 use super::lock::Lock;
 use super::records::{Decision, Fingerprint, Hash, Records};
 use super::report::{GridReport, LaserViewReport, ProcessReport, REPORT_SCHEMA_VERSION, Section, ViewReport};
-use super::stages::{self, ViewGrid};
+use super::stages::{self, ViewData, ViewGrid};
 use super::{ProcessParams, Progress, Stage};
 use crate::Error;
 use crate::laser_line::{Background, RowWindows, extract_line, triangulate_line, working_volume_windows};
@@ -17,7 +17,7 @@ use rig::image::Image8;
 use rig::math::Real;
 use rig::ply::WriteOptions;
 use rig::scan_folder::{Manifest, Method};
-use rig::{Pattern, PointCloud, RangeGrid, Rig};
+use rig::{Pattern, PointCloud, RangeGrid, Rig, SparseView};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use serde_json::{Value, json};
@@ -48,6 +48,21 @@ impl Out {
         Ok(hash)
     }
 
+    /// Writes PLY `bytes` as `name` ([`Out::put`]) and hands on what they hold, read back by `read`:
+    /// the next stage gets exactly what the file says.
+    fn put_ply<T>(
+        &mut self,
+        name: &str,
+        bytes: Vec<u8>,
+        fp: Fingerprint,
+        r: &impl Serialize,
+        read: impl Fn(&rig::ply::PlyFile) -> Result<T, rig::ParseError>,
+    ) -> Result<(T, Hash), Error> {
+        let hash = self.put(name, &bytes, fp, r)?;
+        let ply = rig::ply::parse(&bytes).map_err(|e| e.with_path(&self.path(name)))?;
+        Ok((read(&ply).map_err(|e| e.with_path(&self.path(name)))?, hash))
+    }
+
     fn put_grid(
         &mut self,
         name: &str,
@@ -55,9 +70,7 @@ impl Out {
         fp: Fingerprint,
         r: &impl Serialize,
     ) -> Result<(RangeGrid, Hash), Error> {
-        let bytes = rig::ply::range_grid_to_bytes(grid, &self.opts);
-        let hash = self.put(name, &bytes, fp, r)?;
-        Ok((parse_grid(&bytes, &self.path(name))?, hash))
+        self.put_ply(name, rig::ply::range_grid_to_bytes(grid, &self.opts), fp, r, rig::ply::range_grid_from_ply)
     }
 
     fn put_cloud(
@@ -67,20 +80,22 @@ impl Out {
         fp: Fingerprint,
         r: &impl Serialize,
     ) -> Result<(PointCloud, Hash), Error> {
-        let bytes = rig::ply::cloud_to_bytes(cloud, &self.opts);
-        let hash = self.put(name, &bytes, fp, r)?;
-        let ply = rig::ply::parse(&bytes).map_err(|e| e.with_path(&self.path(name)))?;
-        Ok((rig::ply::cloud_from_ply(&ply).map_err(|e| e.with_path(&self.path(name)))?, hash))
+        self.put_ply(name, rig::ply::cloud_to_bytes(cloud, &self.opts), fp, r, rig::ply::cloud_from_ply)
+    }
+
+    fn put_sparse(
+        &mut self,
+        name: &str,
+        view: &SparseView,
+        fp: Fingerprint,
+        r: &impl Serialize,
+    ) -> Result<(SparseView, Hash), Error> {
+        self.put_ply(name, rig::ply::sparse_view_to_bytes(view, &self.opts), fp, r, rig::ply::sparse_view_from_ply)
     }
 
     fn read_grid(&self, name: &str) -> Result<RangeGrid, Error> {
         Ok(rig::ply::read_range_grid(&self.path(name))?)
     }
-}
-
-fn parse_grid(bytes: &[u8], path: &Path) -> Result<RangeGrid, Error> {
-    let ply = rig::ply::parse(bytes).map_err(|e| e.with_path(path))?;
-    Ok(rig::ply::range_grid_from_ply(&ply).map_err(|e| e.with_path(path))?)
 }
 
 /// A recorded report, typed (the default where an old record lacks it).
@@ -163,14 +178,22 @@ fn with_inputs(mut fp: Fingerprint, inputs: &BTreeMap<String, Hash>) -> Fingerpr
     fp
 }
 
-/// A view's grid as handed to the scan's stages: its name, content hash and, where it was made in
-/// this run, the grid itself (else read when a later stage needs it).
+/// What a view measured, owned.
+enum Measured {
+    Grid(RangeGrid),
+    Sparse(SparseView),
+}
+
+/// A view's measurements as handed to the scan's stages: its name, content hash and, where they were
+/// made in this run, the measurements themselves (else read when a later stage needs them). Laser
+/// views are one per laser, each a sparse view.
 struct ViewOutput {
     view: usize,
     angle_deg: Real,
+    laser: Option<usize>,
     name: String,
     hash: Hash,
-    grid: Option<RangeGrid>,
+    data: Option<Measured>,
 }
 
 /// Runs the stages on the scan folder `scan`, writing into `out`; `progress(stage, done, total)`.
@@ -340,7 +363,8 @@ pub fn process_scan(
                     report.outputs.push(name.clone());
                     handed = name;
                 }
-                outputs.push(ViewOutput { view: v, angle_deg: view.angle_deg, name: handed, hash, grid });
+                let data = grid.map(Measured::Grid);
+                outputs.push(ViewOutput { view: v, angle_deg: view.angle_deg, laser: None, name: handed, hash, data });
             }
             Method::Laser => {
                 if let Some(index) = frames.iter().find_map(|f| match f.0 {
@@ -375,7 +399,7 @@ pub fn process_scan(
                     );
                     let name = Layout::laser_grid(v, k);
                     let decision = o.records.decide(&name, &fp);
-                    let (hash, grid, lr) = match &decision {
+                    let (hash, line, lr) = match &decision {
                         Decision::Reuse(rec) => (rec.hash, None, recorded::<LaserViewReport>(&rec.report)),
                         Decision::Run(_) => {
                             let imgs = load_colour_frames(&pair)?;
@@ -404,17 +428,18 @@ pub fn process_scan(
                                 &params.laser,
                                 |_, _| true,
                             );
-                            let grid = triangulate_line(&peaks, &rig.camera, &laser.plane);
-                            let lr = LaserViewReport { laser: k, line, points: grid.valid_count() };
-                            let (grid, hash) = o.put_grid(&name, &grid, fp, &lr)?;
-                            (hash, Some(grid), lr)
+                            let points = triangulate_line(&peaks, &rig.camera, &laser.plane);
+                            let lr = LaserViewReport { laser: k, line, points: points.len() };
+                            let (points, hash) = o.put_sparse(&name, &points, fp, &lr)?;
+                            (hash, Some(points), lr)
                         }
                     };
                     vr.reused &= decision.reused();
                     vr.points += lr.points;
                     vr.lasers.push(section(&decision, t.elapsed().as_secs_f64(), lr));
                     report.outputs.push(name.clone());
-                    outputs.push(ViewOutput { view: v, angle_deg: view.angle_deg, name, hash, grid });
+                    let data = line.map(Measured::Sparse);
+                    outputs.push(ViewOutput { view: v, angle_deg: view.angle_deg, laser: Some(k), name, hash, data });
                 }
             }
             Method::Board => unreachable!("refused above"),
@@ -457,18 +482,19 @@ fn read_map(path: &Path) -> Result<ProjectorMap, Error> {
     ProjectorMap::from_npy(&rig::npy::read(path)?).ok_or_else(|| Error::NotAProjectorMap { path: path.to_path_buf() })
 }
 
-/// Loads the grids a scan stage needs that are not in memory.
+/// Loads the views' measurements a scan stage needs that are not in memory.
 fn load_grids(o: &Out, outputs: &mut [ViewOutput]) -> Result<(), Error> {
-    let loaded: Vec<Option<RangeGrid>> = outputs
+    let loaded: Vec<Option<Measured>> = outputs
         .par_iter()
-        .map(|vo| match vo.grid {
-            Some(_) => Ok(None),
-            None => o.read_grid(&vo.name).map(Some),
+        .map(|vo| match (&vo.data, vo.laser) {
+            (Some(_), _) => Ok(None),
+            (None, None) => o.read_grid(&vo.name).map(|g| Some(Measured::Grid(g))),
+            (None, Some(_)) => Ok(Some(Measured::Sparse(rig::ply::read_sparse_view(&o.path(&vo.name))?))),
         })
         .collect::<Result<_, Error>>()?;
     for (vo, g) in outputs.iter_mut().zip(loaded) {
         if g.is_some() {
-            vo.grid = g;
+            vo.data = g;
         }
     }
     Ok(())
@@ -477,7 +503,13 @@ fn load_grids(o: &Out, outputs: &mut [ViewOutput]) -> Result<(), Error> {
 fn view_grids(outputs: &[ViewOutput]) -> Vec<ViewGrid<'_>> {
     outputs
         .iter()
-        .map(|vo| ViewGrid { view: vo.view, angle_deg: vo.angle_deg, grid: vo.grid.as_ref().expect("loaded") })
+        .map(|vo| {
+            let data = match vo.data.as_ref().expect("loaded") {
+                Measured::Grid(g) => ViewData::Grid(g),
+                Measured::Sparse(s) => ViewData::Sparse(s),
+            };
+            ViewGrid { view: vo.view, angle_deg: vo.angle_deg, data }
+        })
         .collect()
 }
 
@@ -610,9 +642,42 @@ fn scan_stages(
         return Ok(());
     }
 
+    // Close: flat caps over the open base and top, in the object frame a turntable gives.
+    let (input_name, input_hash, mut input_cloud) = match (&params.close, rig.turntable.is_some()) {
+        (Some(cp), true) => {
+            let t = Instant::now();
+            let fp = Fingerprint::new(json!({ "close": cp })).input(layout::FUSED, fused_hash);
+            let decision = o.records.decide(layout::CLOSED, &fp);
+            let made = match &decision {
+                Decision::Reuse(rec) => {
+                    report.close = Some(section(&decision, 0.0, recorded(&rec.report)));
+                    (layout::CLOSED, rec.hash, None)
+                }
+                Decision::Run(_) => {
+                    let input = match fused.take() {
+                        Some(c) => c,
+                        None => rig::read_cloud(&o.path(layout::FUSED))?,
+                    };
+                    let (closed, cr) = crate::reconstruct::closing::close_openings(&input, cp);
+                    let (closed, hash) = o.put_cloud(layout::CLOSED, &closed, fp, &cr)?;
+                    report.close = Some(section(&decision, t.elapsed().as_secs_f64(), cr));
+                    (layout::CLOSED, hash, Some(closed))
+                }
+            };
+            report.outputs.push(layout::CLOSED.into());
+            o.records.save()?;
+            made
+        }
+        (Some(_), false) => {
+            report.skipped.push("close: the rig has no [turntable], so no platter and no up to cap by".into());
+            (layout::FUSED, fused_hash, fused.take())
+        }
+        (None, _) => (layout::FUSED, fused_hash, fused.take()),
+    };
+
     // Reconstruct.
     let t = Instant::now();
-    let fp = Fingerprint::new(json!({ "reconstruct": params.reconstruct })).input(layout::FUSED, fused_hash);
+    let fp = Fingerprint::new(json!({ "reconstruct": params.reconstruct })).input(input_name, input_hash);
     let decision = o.records.decide(layout::MESH, &fp);
     let (mesh_hash, mut mesh) = match &decision {
         Decision::Reuse(rec) => {
@@ -621,9 +686,9 @@ fn scan_stages(
             (rec.hash, None)
         }
         Decision::Run(_) => {
-            let input = match fused.take() {
+            let input = match input_cloud.take() {
                 Some(c) => c,
-                None => rig::read_cloud(&o.path(layout::FUSED))?,
+                None => rig::read_cloud(&o.path(input_name))?,
             };
             let (mesh, rr) = stages::reconstruct(&input, &params.reconstruct)
                 .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
@@ -721,6 +786,6 @@ pub fn register_processed(
         }
     }
     let crop = CropParams { radius_mm: crop.radius_mm.or(rig.platter_radius_mm), ..*crop };
-    let views: Vec<ViewGrid> = grids.iter().map(|(v, a, g)| ViewGrid { view: *v, angle_deg: *a, grid: g }).collect();
+    let views: Vec<ViewGrid> = grids.iter().map(|(v, a, g)| ViewGrid::grid(*v, *a, g)).collect();
     stages::register(&views, &axis, &crop, params).map_err(|source| Error::Stage { stage: Stage::Register, source })
 }

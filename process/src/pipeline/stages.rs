@@ -9,13 +9,13 @@ use crate::grid_normals::estimate_normals;
 use crate::icp::IcpError;
 use crate::mean_shift::{MeanShiftParams, MeanShiftReport};
 use crate::multiview::MultiViewReport;
-use crate::placement::{CropParams, place_view};
+use crate::placement::{CropParams, place_sparse, place_view};
 use crate::reconstruct::adfft::{AdFftParams, AdFftReport, reconstruct_adfft};
 use crate::reconstruct::global_fft::{FftParams, FftReport, ReconstructError, reconstruct_fft};
 use crate::register_scan::{Refused, RegisterParams, Tolerance, ViewPose, register_grids};
 use crate::remesh::{RemeshError, RemeshParams, RemeshReport};
 use rig::math::{Isometry3, Point3, Real, Vector3};
-use rig::{PointCloud, PolyMesh, RangeGrid, TriMesh, TurntableAxis};
+use rig::{PointCloud, PolyMesh, RangeGrid, SparseView, TriMesh, TurntableAxis};
 use serde::{Deserialize, Serialize};
 
 /// Why a stage could not run on its input.
@@ -173,7 +173,17 @@ pub fn denoise(
     Ok((clean, report))
 }
 
-/// One view to merge or register: its index, turntable angle (degrees) and range grid (camera
+/// What a view measured: a range grid (structured light: a point per pixel) or a sparse view (a
+/// laser line: a point per row).
+#[derive(Debug, Clone, Copy)]
+pub enum ViewData<'a> {
+    /// A dense range grid.
+    Grid(&'a RangeGrid),
+    /// Points with their pixels.
+    Sparse(&'a SparseView),
+}
+
+/// One view to merge or register: its index, turntable angle (degrees) and what it measured (camera
 /// frame, mm).
 #[derive(Debug, Clone, Copy)]
 pub struct ViewGrid<'a> {
@@ -181,8 +191,15 @@ pub struct ViewGrid<'a> {
     pub view: usize,
     /// Turntable angle, degrees, counter-clockwise seen from above.
     pub angle_deg: Real,
-    /// The grid.
-    pub grid: &'a RangeGrid,
+    /// The measurements.
+    pub data: ViewData<'a>,
+}
+
+impl<'a> ViewGrid<'a> {
+    /// A view of a range grid.
+    pub fn grid(view: usize, angle_deg: Real, grid: &'a RangeGrid) -> Self {
+        ViewGrid { view, angle_deg, data: ViewData::Grid(grid) }
+    }
 }
 
 /// What merging did.
@@ -258,7 +275,13 @@ pub fn merge(views: &[ViewGrid], turntable: Option<&TurntableAxis>, crop: &CropP
     use rayon::prelude::*;
     let placed: Vec<PointCloud> = views
         .par_iter()
-        .map(|v| place_view(v.grid, &turntable_pose(turntable, v.angle_deg), crop, v.view as u32))
+        .map(|v| {
+            let pose = turntable_pose(turntable, v.angle_deg);
+            match v.data {
+                ViewData::Grid(g) => place_view(g, &pose, crop, v.view as u32),
+                ViewData::Sparse(s) => place_sparse(s, &pose, crop, v.view as u32),
+            }
+        })
         .collect();
     let mut report = MergeReport { placed_points: placed.iter().map(|c| c.len()).collect(), ..Default::default() };
     let mut cloud = crate::placement::merge(placed);
@@ -326,7 +349,18 @@ pub fn register(
     if views.len() < 2 {
         return Err(StageError::TooFewViews(views.len()));
     }
-    let refs: Vec<(usize, Real, &RangeGrid)> = views.iter().map(|v| (v.view, v.angle_deg, v.grid)).collect();
+    // Pairwise ICP needs each view's surface with its grid normals: range grids only (laser lines are
+    // aligned per laser, see `register_lasers`).
+    let refs: Vec<(usize, Real, &RangeGrid)> = views
+        .iter()
+        .filter_map(|v| match v.data {
+            ViewData::Grid(g) => Some((v.view, v.angle_deg, g)),
+            ViewData::Sparse(_) => None,
+        })
+        .collect();
+    if refs.len() < 2 {
+        return Err(StageError::TooFewViews(refs.len()));
+    }
     let (mut cloud, poses, refinement) = register_grids(&refs, axis, crop, params)?;
     // The refined poses place the cameras too: the normals a point lacks turn toward its own.
     let centres = poses.iter().map(|p| (p.view as u32, Point3::from(p.translation_mm()))).collect();

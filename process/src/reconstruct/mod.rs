@@ -1,9 +1,11 @@
 //! Watertight surfaces from oriented points (thesis ch. 5): the global FFT method of Kazhdan (2005)
 //! on one N³ grid ([`global_fft`]), AdFFT's local FFT solutions over an octree blended by a partition
-//! of unity (thesis 5.3, [`adfft`]), and marching cubes ([`marching_cubes`]); [`mesh_distance`] is the
+//! of unity (thesis 5.3, [`adfft`]), the caps a turntable scan's open base and top get first
+//! ([`closing`]), and marching cubes ([`marching_cubes`]); [`mesh_distance`] is the
 //! accuracy metric against a reference surface.
 
 pub mod adfft;
+pub mod closing;
 pub mod fft3;
 pub mod global_fft;
 pub mod marching_cubes;

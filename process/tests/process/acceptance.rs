@@ -184,7 +184,9 @@ fn laser_rig_finds_the_line_in_nearly_every_row_and_both_lasers_agree() {
         let pose = rig.turntable.unwrap().object_from_camera(view.angle_deg);
         for (k, cloud) in clouds.iter_mut().enumerate() {
             let centres = t(&format!("laser{k}_centres.npy"));
-            let grid = rig::ply::read_range_grid(&out.join(format!("views/view_{v:03}_laser{k}.ply"))).unwrap();
+            let grid = rig::ply::read_sparse_view(&out.join(format!("views/view_{v:03}_laser{k}.ply")))
+                .unwrap()
+                .to_range_grid();
             for r in 0..h {
                 let truth_cols: Vec<Real> =
                     centres[r * 4..r * 4 + 4].iter().copied().filter(|c| c.is_finite()).collect();

@@ -66,7 +66,9 @@ fn realistic_laser_frames_give_the_object_and_never_the_wall() {
         let part = t("part.npy").to_f64();
         for k in 0..cfg.rig.lasers.len() {
             let centres = t(&format!("laser{k}_centres.npy")).to_f64();
-            let grid = rig::ply::read_range_grid(&out.join(format!("views/view_{v:03}_laser{k}.ply"))).unwrap();
+            let grid = rig::ply::read_sparse_view(&out.join(format!("views/view_{v:03}_laser{k}.ply")))
+                .unwrap()
+                .to_range_grid();
             estimated &= report["views"][v]["lasers"][k]["report"]["line"]["estimated_background"] == true;
             for r in 0..h {
                 // Crossings on the object only: the wall's, floor's and platter's lines are not wanted.
@@ -101,8 +103,8 @@ fn realistic_laser_frames_give_the_object_and_never_the_wall() {
     let outside = |win: Option<&process::laser_line::RowWindows>| {
         let bg = process::laser_line::Background::Estimated;
         let (peaks, _) = process::laser_line::extract_line(&frame, bg, laser.colour, win, &lp, |_, _| true);
-        let grid = process::laser_line::triangulate_line(&peaks, &rig.camera, &laser.plane);
-        grid.points.iter().zip(&grid.valid).filter(|(p, ok)| **ok && !volume.contains(p, 5.0)).count()
+        let line = process::laser_line::triangulate_line(&peaks, &rig.camera, &laser.plane);
+        line.points.iter().filter(|p| !volume.contains(p, 5.0)).count()
     };
     let (unbounded, bounded) = (outside(None), outside(Some(&windows)));
     eprintln!("view 0, laser 0: {unbounded} points outside the working volume without it, {bounded} with it");
@@ -130,8 +132,8 @@ fn realistic_laser_frames_give_the_object_and_never_the_wall() {
         100.0 * p95_mesh / diag
     );
     assert!(frac >= 0.95, "a point in {frac} of the object's lit rows");
-    // p95 ≤ 0.5 % is not met yet (the unlit top, see the README example's test).
-    assert!(median_mesh <= 1e-3 * diag && p95_mesh <= 0.035 * diag, "mesh {median_mesh} / {p95_mesh} mm");
+    // Issue 20: median ≤ 0.1 %, p95 ≤ 0.5 % (the open top and base capped flat, normals across lines).
+    assert!(median_mesh <= 1e-3 * diag && p95_mesh <= 5e-3 * diag, "mesh {median_mesh} / {p95_mesh} mm");
     assert!(median_px <= 0.1 && p99_px <= 0.5, "centre errors median {median_px} px, p99 {p99_px} px");
     assert!(near >= 0.99, "{near} of the points within 0.5 % of the diagonal of the truth");
     assert!(median <= 5e-4 * diag, "median error {median} mm");
@@ -153,11 +155,11 @@ fn the_readme_laser_example_meshes_the_object_and_a_sparse_scan_says_take_more_v
         100.0 * median / diag,
         100.0 * p95 / diag
     );
-    // Issue 20 asks p95 ≤ 0.5 %: not yet — the top, which the lasers never light (they sit below it),
-    // is closed at the reconstruction grid's edge 5 mm above the rim (README, status). Meanwhile this
-    // keeps what holds: the median, and no box.
+    // Issue 20: median ≤ 0.1 %, p95 ≤ 0.5 %. The top, which the lasers below it never light, and the
+    // base on the platter are capped flat (`closing`); the PCA normals reach past the line two lasers
+    // share. (At the CLI's default seed the p95 is 0.77 %, the base's cap sagging: see the README.)
     assert!(median <= 1e-3 * diag, "mesh median {median} mm from the truth");
-    assert!(p95 <= 0.03 * diag, "mesh p95 {p95} mm from the truth");
+    assert!(p95 <= 5e-3 * diag, "mesh p95 {p95} mm from the truth");
 
     // Six views: lines 60° apart.
     let sparse_cfg = SimConfig { scan: sim::config::ScanConfig { views: 6, ..cfg.scan.clone() }, ..cfg };

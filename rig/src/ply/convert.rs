@@ -4,7 +4,7 @@ use super::{Element, PlyFile};
 use crate::error::{Location, ParseError, Problem};
 use crate::math::{Point3, UnitVector3, Vector3};
 use crate::range_grid::{RangeGrid, Sensor};
-use crate::{PointCloud, PolyMesh};
+use crate::{PointCloud, PolyMesh, SparseView};
 
 fn at(el: &Element, index: usize) -> Location {
     Location::Element { name: el.def.name.clone(), index: index as u64, line: None }
@@ -122,31 +122,21 @@ pub fn mesh_from_ply(ply: &PlyFile) -> Result<PolyMesh, ParseError> {
     Ok(mesh)
 }
 
-/// A Stanford range scan: the `range_grid` element (one list of 0 or 1 vertex index per cell, row-major
-/// as stored) sized by `obj_info num_cols` and `num_rows`, with normals and confidence where the vertices
-/// have them. The sensor comes from a `comment sensor …` line, else it is the Cyberware's: looking along
-/// −z, so `Sensor::Direction(+z)`.
-pub fn range_grid_from_ply(ply: &PlyFile) -> Result<RangeGrid, ParseError> {
-    let v = vertex_element(ply)?;
-    let pts = positions(v)?;
-    let g = ply.element("range_grid").ok_or_else(|| missing("element `range_grid`".into()))?;
+/// The image size from `obj_info num_cols` and `num_rows`.
+fn image_size(ply: &PlyFile) -> Result<(usize, usize), ParseError> {
     let dim = |key: &str| {
         ply.header
             .obj_info_value(key)
             .and_then(|s| s.parse::<usize>().ok())
-            .ok_or_else(|| missing(format!("`obj_info {key}` (the range grid's size)")))
+            .ok_or_else(|| missing(format!("`obj_info {key}` (the scan's image size)")))
     };
-    let (w, h) = (dim("num_cols")?, dim("num_rows")?);
-    if w.checked_mul(h) != Some(g.len()) {
-        let msg = format!("range_grid has {} cells but obj_info says {w} × {h}", g.len());
-        return Err(ParseError::new(Location::File, Problem::Invalid(msg)));
-    }
-    let (_, offsets, values) =
-        g.first_list().ok_or_else(|| missing("a list property of element `range_grid`".into()))?;
-    // The sensor, where a `comment sensor center|direction x y z` line gives it (scanrig writes one);
-    // otherwise the Cyberware convention of a sensor toward +z.
-    let sensor = ply
-        .header
+    Ok((dim("num_cols")?, dim("num_rows")?))
+}
+
+/// The sensor, where a `comment sensor center|direction x y z` line gives it (scanrig writes one);
+/// otherwise the Cyberware convention of a sensor toward +z.
+fn sensor(ply: &PlyFile) -> Sensor {
+    ply.header
         .comments
         .iter()
         .find_map(|c| {
@@ -160,7 +150,49 @@ pub fn range_grid_from_ply(ply: &PlyFile) -> Result<RangeGrid, ParseError> {
                 _ => None,
             }
         })
-        .unwrap_or(Sensor::Direction(UnitVector3::new_unchecked(Vector3::z())));
+        .unwrap_or(Sensor::Direction(UnitVector3::new_unchecked(Vector3::z())))
+}
+
+/// A sparse view (see [`sparse_view_to_bytes`](super::sparse_view_to_bytes)): vertices with
+/// `px_col px_row` and, where present, `confidence` (else 1); the image size from `obj_info`. A pixel
+/// outside the image or not finite is refused, naming the vertex.
+pub fn sparse_view_from_ply(ply: &PlyFile) -> Result<SparseView, ParseError> {
+    let v = vertex_element(ply)?;
+    let points = positions(v)?;
+    let (width, height) = image_size(ply)?;
+    let col = |n: &str| v.scalar(n).ok_or_else(|| missing(format!("scalar property `{n}` of element `vertex`")));
+    let (cols, rows) = (col("px_col")?, col("px_row")?);
+    let mut view = SparseView::empty(width, height, sensor(ply));
+    let conf = v.scalar("confidence");
+    for (i, p) in points.into_iter().enumerate() {
+        let (c, r) = (cols[i], rows[i]);
+        // Pixel centres run from 0 to size − 1; half a pixel beyond is still on the sensor.
+        let inside = |x: f64, n: usize| x.is_finite() && x >= -0.5 && x <= n as f64 - 0.5;
+        if !inside(c, width) || !inside(r, height) {
+            let msg = format!("pixel ({c}, {r}) lies outside the {width} × {height} image");
+            return Err(ParseError::new(at(v, i), Problem::Invalid(msg)));
+        }
+        view.push(p, [c as f32, r as f32], conf.map_or(1.0, |k| k[i] as f32));
+    }
+    Ok(view)
+}
+
+/// A Stanford range scan: the `range_grid` element (one list of 0 or 1 vertex index per cell, row-major
+/// as stored) sized by `obj_info num_cols` and `num_rows`, with normals and confidence where the vertices
+/// have them. The sensor comes from a `comment sensor …` line, else it is the Cyberware's: looking along
+/// −z, so `Sensor::Direction(+z)`.
+pub fn range_grid_from_ply(ply: &PlyFile) -> Result<RangeGrid, ParseError> {
+    let v = vertex_element(ply)?;
+    let pts = positions(v)?;
+    let g = ply.element("range_grid").ok_or_else(|| missing("element `range_grid`".into()))?;
+    let (w, h) = image_size(ply)?;
+    if w.checked_mul(h) != Some(g.len()) {
+        let msg = format!("range_grid has {} cells but obj_info says {w} × {h}", g.len());
+        return Err(ParseError::new(Location::File, Problem::Invalid(msg)));
+    }
+    let (_, offsets, values) =
+        g.first_list().ok_or_else(|| missing("a list property of element `range_grid`".into()))?;
+    let sensor = sensor(ply);
     let mut grid = RangeGrid::empty(w, h, sensor);
     let vn = normals(v);
     let vc = v.scalar("confidence");

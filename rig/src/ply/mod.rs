@@ -19,15 +19,15 @@ mod convert;
 mod header;
 mod write;
 
-pub use convert::{cloud_from_ply, mesh_from_ply, range_grid_from_ply};
+pub use convert::{cloud_from_ply, mesh_from_ply, range_grid_from_ply, sparse_view_from_ply};
 pub use header::{ElementDef, Encoding, Header, PropertyDef, PropertyKind, ScalarType};
 pub use write::{
-    Precision, WriteOptions, cloud_to_bytes, mesh_to_bytes, range_grid_to_bytes, write_cloud, write_mesh,
-    write_range_grid,
+    Precision, WriteOptions, cloud_to_bytes, mesh_to_bytes, range_grid_to_bytes, sparse_view_to_bytes, write_cloud,
+    write_mesh, write_range_grid,
 };
 
 use crate::error::{Error, ParseError, read_bytes};
-use crate::{PointCloud, PolyMesh, RangeGrid};
+use crate::{PointCloud, PolyMesh, RangeGrid, SparseView};
 use std::path::Path;
 
 /// The values of one property across all entries of an element.
@@ -142,4 +142,9 @@ pub fn read_mesh(path: &Path) -> Result<PolyMesh, Error> {
 /// Reads a Stanford range scan (`range_grid` element and `obj_info num_cols/num_rows`).
 pub fn read_range_grid(path: &Path) -> Result<RangeGrid, Error> {
     range_grid_from_ply(&read(path)?).map_err(|e| e.with_path(path))
+}
+
+/// Reads a sparse view (vertices with `px_col px_row`, `obj_info num_cols/num_rows`).
+pub fn read_sparse_view(path: &Path) -> Result<SparseView, Error> {
+    sparse_view_from_ply(&read(path)?).map_err(|e| e.with_path(path))
 }

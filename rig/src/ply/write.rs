@@ -3,7 +3,7 @@
 use super::header::{Encoding, ScalarType};
 use crate::error::{Error, write_atomic};
 use crate::math::{Point3, Vector3};
-use crate::{PointCloud, PolyMesh, RangeGrid, Sensor};
+use crate::{PointCloud, PolyMesh, RangeGrid, Sensor, SparseView};
 use std::path::Path;
 
 /// The type of written coordinates and normals.
@@ -224,23 +224,15 @@ pub fn range_grid_to_bytes(grid: &RangeGrid, opts: &WriteOptions) -> Vec<u8> {
         props.push("float confidence".into());
     }
     let valid: Vec<usize> = (0..grid.valid.len()).filter(|&i| grid.valid[i]).collect();
-    let mut opts = opts.clone();
-    match &grid.sensor {
-        Sensor::Center(c) => opts.comments.push(format!("sensor center {} {} {}", c.x, c.y, c.z)),
-        Sensor::Direction(d) => opts.comments.push(format!("sensor direction {} {} {}", d.x, d.y, d.z)),
-        Sensor::PerCell(_) => {}
-    }
-    let mut head = header(
+    let opts = with_sensor(opts, &grid.sensor);
+    let head = header(
         &opts,
         &[
             ("vertex", valid.len(), props),
             ("range_grid", grid.valid.len(), vec!["list uchar int vertex_indices".into()]),
         ],
     );
-    // obj_info lines go before the elements, as in the Stanford files.
-    let info = format!("obj_info num_cols {}\nobj_info num_rows {}\n", grid.width, grid.height);
-    let at = head.windows(8).position(|w| w == b"element ").expect("the header has elements");
-    head.splice(at..at, info.into_bytes());
+    let head = with_size(head, grid.width, grid.height);
     let mut body = Body { out: head, encoding: opts.encoding, first_on_line: true };
     for &i in &valid {
         write_point(&mut body, t, &grid.points[i], grid.normals.as_ref().map(|n| &n[i]));
@@ -258,6 +250,47 @@ pub fn range_grid_to_bytes(grid: &RangeGrid, opts: &WriteOptions) -> Vec<u8> {
         } else {
             body.value(ScalarType::U8, 0.0);
         }
+        body.end_entry();
+    }
+    body.out
+}
+
+/// The options with the sensor as a `comment sensor …` line (a per-cell sensor is not written).
+fn with_sensor(opts: &WriteOptions, sensor: &Sensor) -> WriteOptions {
+    let mut opts = opts.clone();
+    match sensor {
+        Sensor::Center(c) => opts.comments.push(format!("sensor center {} {} {}", c.x, c.y, c.z)),
+        Sensor::Direction(d) => opts.comments.push(format!("sensor direction {} {} {}", d.x, d.y, d.z)),
+        Sensor::PerCell(_) => {}
+    }
+    opts
+}
+
+/// The header with the image size as `obj_info num_cols/num_rows`, before the elements as in the
+/// Stanford files.
+fn with_size(mut head: Vec<u8>, width: usize, height: usize) -> Vec<u8> {
+    let info = format!("obj_info num_cols {width}\nobj_info num_rows {height}\n");
+    let at = head.windows(8).position(|w| w == b"element ").expect("the header has elements");
+    head.splice(at..at, info.into_bytes());
+    head
+}
+
+/// A sparse view as PLY bytes: a plain point cloud every reader opens (`x y z`, `float confidence`),
+/// each vertex with the pixel it was seen at (`float px_col px_row`), the image size as
+/// `obj_info num_cols/num_rows` and the sensor as a `comment sensor …` line, which
+/// [`sparse_view_from_ply`](super::sparse_view_from_ply) reads back.
+pub fn sparse_view_to_bytes(view: &SparseView, opts: &WriteOptions) -> Vec<u8> {
+    let t = real(opts);
+    let mut props = vertex_props(opts, false);
+    props.extend(["float confidence", "float px_col", "float px_row"].map(String::from));
+    let opts = with_sensor(opts, &view.sensor);
+    let head = with_size(header(&opts, &[("vertex", view.len(), props)]), view.width, view.height);
+    let mut body = Body { out: head, encoding: opts.encoding, first_on_line: true };
+    for i in 0..view.len() {
+        write_point(&mut body, t, &view.points[i], None);
+        body.value(ScalarType::F32, view.confidence[i] as f64);
+        body.value(ScalarType::F32, view.pixels[i][0] as f64);
+        body.value(ScalarType::F32, view.pixels[i][1] as f64);
         body.end_entry();
     }
     body.out

@@ -21,6 +21,7 @@ fn read_everything(bytes: &[u8]) {
         let _ = ply::cloud_from_ply(&p);
         let _ = ply::mesh_from_ply(&p);
         let _ = ply::range_grid_from_ply(&p);
+        let _ = ply::sparse_view_from_ply(&p);
         let _ = p.header.units();
     }
     let _ = rig::obj::parse(bytes);

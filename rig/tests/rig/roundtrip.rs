@@ -193,6 +193,45 @@ proptest! {
     }
 }
 
+fn sparse_view() -> impl Strategy<Value = rig::SparseView> {
+    (1usize..2000, 1usize..2000).prop_flat_map(|(w, h)| {
+        let pixel = (-0.5f32..w as f32 - 0.5, -0.5f32..h as f32 - 0.5);
+        (prop::collection::vec((point(), pixel, 0f32..1.0), 0..40), point()).prop_map(move |(pts, c)| {
+            let mut v = rig::SparseView::empty(w, h, rig::Sensor::Center(c));
+            for (p, (col, row), k) in pts {
+                v.push(p, [col, row], k);
+            }
+            v
+        })
+    })
+}
+
+proptest! {
+    #[test]
+    fn ply_sparse_view_round_trip(v in sparse_view()) {
+        for encoding in ENCODINGS {
+            let opts = WriteOptions { encoding, precision: Precision::F64, comments: vec![] };
+            let bytes = ply::sparse_view_to_bytes(&v, &opts);
+            let back = ply::sparse_view_from_ply(&ply::parse(&bytes).unwrap()).unwrap();
+            prop_assert_eq!(&back, &v);
+            // And it is a plain cloud to every other reader.
+            let cloud = ply::cloud_from_ply(&ply::parse(&bytes).unwrap()).unwrap();
+            prop_assert_eq!(cloud.positions, v.points.clone());
+        }
+    }
+}
+
+/// A sparse view's pixel outside its image is refused, naming the vertex.
+#[test]
+fn a_sparse_view_pixel_outside_the_image_is_refused() {
+    let mut v = rig::SparseView::empty(64, 48, rig::Sensor::Center(Point3::origin()));
+    v.push(Point3::new(1.0, 2.0, 300.0), [10.0, 5.0], 0.5);
+    v.push(Point3::new(1.0, 2.0, 300.0), [10.0, 48.0], 0.5);
+    let bytes = ply::sparse_view_to_bytes(&v, &WriteOptions::ascii());
+    let err = ply::sparse_view_from_ply(&ply::parse(&bytes).unwrap()).unwrap_err().to_string();
+    assert!(err.contains("vertex") && err.contains("outside the 64 × 48 image"), "{err}");
+}
+
 /// A polygon with more corners than a `uchar` count holds is written whole, with a wider count, in
 /// every encoding: one face of 300 corners reads back as that face.
 #[test]
