@@ -463,6 +463,24 @@ pub fn process_scan(
         }
     }
 
+    // A laser whose frames give (almost) no line: a wrong `colour` in the rig, or frames that do not
+    // show it — not to be left as empty views.
+    for (k, laser) in rig.lasers.iter().enumerate() {
+        let sections: Vec<&LaserViewReport> =
+            report.views.iter().flat_map(|v| &v.lasers).map(|s| &s.report).filter(|r| r.laser == k).collect();
+        let points: usize = sections.iter().map(|r| r.points).sum();
+        if !sections.is_empty() && (points as Real) < 0.01 * rig.camera.height as Real * sections.len() as Real {
+            report.warnings.push(format!(
+                "laser {k} (`{}`, colour {:?}) gave {points} points in {} frames, nearly none: check its `colour` \
+                 under [[lasers]] in {} and that its frames show the line",
+                laser.name,
+                laser.colour,
+                sections.len(),
+                rig_path.display()
+            ));
+        }
+    }
+
     let crop = CropParams { radius_mm: params.crop.radius_mm.or(rig.platter_radius_mm), ..params.crop };
     let result = scan_stages(&mut o, &mut report, &rig, manifest.method, outputs, &crop, params, &mut progress);
     // The report is written whatever happened, so what did finish is described.

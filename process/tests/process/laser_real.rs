@@ -214,3 +214,28 @@ fn a_laser_plane_outside_the_working_volume_is_refused_and_a_lost_frame_reported
         report.warnings
     );
 }
+
+/// Colour frames of a red laser read with the rig saying blue give nearly no line: said, naming the
+/// rig field, not left as empty views.
+#[test]
+fn a_wrong_laser_colour_is_said() {
+    let mut cfg = SimConfig::builtin("realistic").unwrap().with_camera_resolution(320, 240);
+    cfg.scan.views = 3;
+    let vase = sim::fluted_vase(cfg.scene.object_size_mm);
+    let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(cfg.scene.object_albedo));
+    let scan = fixtures::temp_dir("process-laser-wrong-colour");
+    let opts = ScanOptions { method: Method::Laser, seed: 4, truth: false };
+    simulate_scan(&cfg, &scene, None, opts, &scan, |_, _| {}).unwrap();
+    let params = ProcessParams { until: process::Stage::Triangulate, ..Default::default() };
+    let right = process_scan(&scan, &scan.join("processed"), &params, |_, _, _| {}).unwrap();
+    assert!(!right.warnings.iter().any(|w| w.contains("nearly none")), "{:?}", right.warnings);
+    let mut rig = rig::Rig::read(&scan.join("rig.toml")).unwrap();
+    rig.lasers[0].colour = rig::LaserColour::Blue;
+    rig.write(&scan.join("rig.toml")).unwrap();
+    let wrong = process_scan(&scan, &scan.join("processed"), &params, |_, _, _| {}).unwrap();
+    assert!(
+        wrong.warnings.iter().any(|w| w.contains("laser 0 (`left`, colour Blue)") && w.contains("`colour`")),
+        "{:?}",
+        wrong.warnings
+    );
+}
