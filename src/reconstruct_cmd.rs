@@ -18,6 +18,14 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
                 eprintln!("closed the {what} at z = {:.3} with {} samples", c.z, c.points);
             }
         }
+        if let Some(b) = r.bottom.filter(|b| b.z != 0.0) {
+            eprintln!(
+                "warning: {} does not start at z = 0, so its base was capped at z = {:.3}: --close is for clouds in a \
+                 turntable scan's object frame (z up, the platter at z = 0); elsewhere the caps may close the wrong sides",
+                args.input.display(),
+                b.z
+            );
+        }
         cloud = closed;
     }
     let opts = crate::outputs::write_options_like(&args.input)?;

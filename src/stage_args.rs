@@ -194,9 +194,8 @@ pub struct ReconstructOpts {
     /// cannot hold).
     #[arg(long, default_value_t = FftParams::default().memory_budget as f64 / 1e9)]
     pub memory_budget: f64,
-    /// Global method: the Gaussian low-pass's standard deviation, in grid cells (default 0.5). Sparse
-    /// samples — laser lines several cells apart — want it near half their gap, or the surface sags
-    /// between them.
+    /// Global method: the Gaussian low-pass's standard deviation, in grid cells (default 0.5); larger
+    /// smooths noise and small detail away.
     #[arg(long)]
     pub smoothing_cells: Option<f64>,
 }

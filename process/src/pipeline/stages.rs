@@ -346,11 +346,8 @@ pub fn register(
     crop: &CropParams,
     params: &RegisterParams,
 ) -> Result<(PointCloud, Vec<ViewPose>, RegisterReport), StageError> {
-    if views.len() < 2 {
-        return Err(StageError::TooFewViews(views.len()));
-    }
-    // Pairwise ICP needs each view's surface with its grid normals: range grids only (laser lines are
-    // aligned per laser, see `register_lasers`).
+    // Pairwise ICP needs each view's surface with its grid normals: range grids only (a laser line
+    // overlaps no other view's).
     let refs: Vec<(usize, Real, &RangeGrid)> = views
         .iter()
         .filter_map(|v| match v.data {

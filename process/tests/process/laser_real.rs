@@ -19,13 +19,19 @@ struct Simulated {
     out: std::path::PathBuf,
 }
 
-fn simulate_and_mesh(cfg: &SimConfig, name: &str, seed: u64, truth: bool) -> Simulated {
+/// A simulated laser scan of the vase into a new temporary folder (with per-view truth if `truth`).
+fn simulate(cfg: &SimConfig, name: &str, seed: u64, truth: bool) -> (rig::TriMesh, Scene, fixtures::TempDir) {
     let vase = sim::fluted_vase(cfg.scene.object_size_mm);
-    let diag = vase.bounding_box().unwrap().diagonal();
     let scene = Scene::on_turntable(cfg, &vase, Albedo::Constant(cfg.scene.object_albedo));
     let scan = fixtures::temp_dir(name);
     let opts = ScanOptions { method: Method::Laser, seed, truth };
     simulate_scan(cfg, &scene, Some(&vase), opts, &scan, |_, _| {}).unwrap();
+    (vase, scene, scan)
+}
+
+fn simulate_and_mesh(cfg: &SimConfig, name: &str, seed: u64, truth: bool) -> Simulated {
+    let (vase, scene, scan) = simulate(cfg, name, seed, truth);
+    let diag = vase.bounding_box().unwrap().diagonal();
     let out = scan.join("processed");
     let params = ProcessParams { until: process::Stage::Reconstruct, ..Default::default() };
     process_scan(&scan, &out, &params, |_, _, _| {}).unwrap();
@@ -186,11 +192,7 @@ fn the_readme_laser_example_meshes_the_object_and_a_sparse_scan_says_take_more_v
 fn a_laser_plane_outside_the_working_volume_is_refused_and_a_lost_frame_reported() {
     let mut cfg = SimConfig::builtin("laser").unwrap().with_camera_resolution(320, 240);
     cfg.scan.views = 4;
-    let vase = sim::fluted_vase(cfg.scene.object_size_mm);
-    let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(cfg.scene.object_albedo));
-    let scan = fixtures::temp_dir("process-laser-wrong-plane");
-    let opts = ScanOptions { method: Method::Laser, seed: 3, truth: false };
-    simulate_scan(&cfg, &scene, None, opts, &scan, |_, _| {}).unwrap();
+    let (_, _, scan) = simulate(&cfg, "process-laser-wrong-plane", 3, false);
     let good = rig::Rig::read(&scan.join("rig.toml")).unwrap();
     let mut wrong = good.clone();
     wrong.lasers[1].plane = rig::LaserPlane::new(wrong.lasers[1].plane.normal.into_inner(), 900.0).unwrap();
@@ -221,11 +223,7 @@ fn a_laser_plane_outside_the_working_volume_is_refused_and_a_lost_frame_reported
 fn a_wrong_laser_colour_is_said() {
     let mut cfg = SimConfig::builtin("realistic").unwrap().with_camera_resolution(320, 240);
     cfg.scan.views = 3;
-    let vase = sim::fluted_vase(cfg.scene.object_size_mm);
-    let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(cfg.scene.object_albedo));
-    let scan = fixtures::temp_dir("process-laser-wrong-colour");
-    let opts = ScanOptions { method: Method::Laser, seed: 4, truth: false };
-    simulate_scan(&cfg, &scene, None, opts, &scan, |_, _| {}).unwrap();
+    let (_, _, scan) = simulate(&cfg, "process-laser-wrong-colour", 4, false);
     let params = ProcessParams { until: process::Stage::Triangulate, ..Default::default() };
     let right = process_scan(&scan, &scan.join("processed"), &params, |_, _, _| {}).unwrap();
     assert!(!right.warnings.iter().any(|w| w.contains("nearly none")), "{:?}", right.warnings);

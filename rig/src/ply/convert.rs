@@ -153,13 +153,21 @@ fn sensor(ply: &PlyFile) -> Sensor {
         .unwrap_or(Sensor::Direction(UnitVector3::new_unchecked(Vector3::z())))
 }
 
+/// The largest image a sparse view may claim: 2³⁰ pixels (a 32768 × 32768 sensor).
+const MAX_SPARSE_PIXELS: usize = 1 << 30;
+
 /// A sparse view (see [`sparse_view_to_bytes`](super::sparse_view_to_bytes)): vertices with
 /// `px_col px_row` and, where present, `confidence` (else 1); the image size from `obj_info`. A pixel
-/// outside the image or not finite is refused, naming the vertex.
+/// outside the image or not finite is refused, naming the vertex; so is an image no camera has
+/// (empty, or over 2³⁰ pixels: a grid of it could not be allocated).
 pub fn sparse_view_from_ply(ply: &PlyFile) -> Result<SparseView, ParseError> {
     let v = vertex_element(ply)?;
     let points = positions(v)?;
     let (width, height) = image_size(ply)?;
+    if width == 0 || height == 0 || width.checked_mul(height).is_none_or(|n| n > MAX_SPARSE_PIXELS) {
+        let msg = format!("obj_info gives a {width} × {height} image, which no camera has");
+        return Err(ParseError::new(Location::File, Problem::Invalid(msg)));
+    }
     let col = |n: &str| v.scalar(n).ok_or_else(|| missing(format!("scalar property `{n}` of element `vertex`")));
     let (cols, rows) = (col("px_col")?, col("px_row")?);
     let mut view = SparseView::empty(width, height, sensor(ply));

@@ -230,6 +230,10 @@ fn a_sparse_view_pixel_outside_the_image_is_refused() {
     let bytes = ply::sparse_view_to_bytes(&v, &WriteOptions::ascii());
     let err = ply::sparse_view_from_ply(&ply::parse(&bytes).unwrap()).unwrap_err().to_string();
     assert!(err.contains("vertex") && err.contains("outside the 64 × 48 image"), "{err}");
+    // An image no camera has (a grid of it could not be allocated) is refused too.
+    let huge = String::from_utf8(bytes).unwrap().replace("num_cols 64", "num_cols 4000000000");
+    let err = ply::sparse_view_from_ply(&ply::parse(huge.as_bytes()).unwrap()).unwrap_err().to_string();
+    assert!(err.contains("4000000000 × 48 image, which no camera has"), "{err}");
 }
 
 /// A polygon with more corners than a `uchar` count holds is written whole, with a wider count, in
