@@ -67,7 +67,7 @@ pub fn pca_normal_across_views(
 
 /// Neighbours whose spread across their main direction is under a tenth of the spread along it
 /// (second eigenvalue of their covariance under 1 % of the first): a line, with no plane of its own.
-fn is_line(points: &[Point3], nb: &[usize]) -> bool {
+pub(crate) fn is_line(points: &[Point3], nb: &[usize]) -> bool {
     let e = covariance(points, nb).symmetric_eigen().eigenvalues;
     let mut e = [e[0], e[1], e[2]];
     e.sort_by(|a, b| b.total_cmp(a));

@@ -188,7 +188,9 @@ fn cap<'a>(
     let area = capped.len() as Real * c * c;
     // Cap samples stand for as much surface each as the rim's samples do — the slab's wall (its
     // outline, at least the perimeter of a disc of the cap's area, times its thickness) over its
-    // samples — so they weigh in the reconstruction (whose level is the mean of χ over the samples)
+    // samples — so they weigh in the reconstruction (whose level is the area-weighted mean of χ over the
+    // samples, the areas capped at a few times their median: a cap far denser than the wall would set
+    // that median and cap the wall's areas)
     // as measured surface of their size would. Laser lines are dense along and sparse across: a
     // cap as dense as one line's samples would outweigh the whole wall.
     let wall = 2.0 * (std::f64::consts::PI * area).sqrt() * thickness;

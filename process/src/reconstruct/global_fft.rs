@@ -5,7 +5,7 @@
 //! space `χ̂(ω) = i ω·V̂(ω) / |ω|²` — eq. 5.16 with the `F` of eq. 5.17 summed over the samples. On
 //! an N³ grid this is three real FFTs of the splatted normal components, one multiply (with a Gaussian
 //! low-pass that stands in for the thesis's smoothing filter), and one inverse FFT. The surface is
-//! χ's level set at the mean of χ over the samples, extracted by marching cubes.
+//! χ's level set at the area-weighted mean of χ over the samples, extracted by marching cubes.
 //!
 //! Memory is cubic in N: a real grid and two half spectra, 12·N³ bytes (201 MB at 256³, 1.6 GB at
 //! 512³); a grid over the budget is refused before anything is allocated.
@@ -135,7 +135,11 @@ pub fn bounding_cube(points: &[Point3], padding: Real) -> (Point3, Real) {
 
 /// The area each sample stands for: the disc out to its k-th neighbour, shared by the k samples in it,
 /// at most a few times the median. Evens out overlapping scans, which would otherwise pull the
-/// iso-level toward the doubly sampled parts.
+/// iso-level toward the doubly sampled parts. Where the k nearest lie on one line — a laser scan,
+/// dense along each line and sparse across — the disc would measure the spacing along the line only
+/// and make each sample a small fraction of its true area (a cap of even samples beside such lines
+/// then outweighs the wall); k widens fourfold, up to [`AREA_MAX_WIDENINGS`] times, until the disc
+/// reaches the neighbouring lines, where its k samples share it as they share the surface.
 pub fn area_weights(points: &[Point3], k: usize) -> Vec<Real> {
     if k == 0 || points.len() <= k {
         return vec![1.0; points.len()];
@@ -144,9 +148,17 @@ pub fn area_weights(points: &[Point3], k: usize) -> Vec<Real> {
     let mut w: Vec<Real> = points
         .par_iter()
         .map(|p| {
-            let nb = tree.nearest_k(p, k + 1);
+            let mut kk = k;
+            let mut nb = tree.nearest_k(p, kk + 1);
+            for _ in 0..AREA_MAX_WIDENINGS {
+                if kk * 4 + 1 > points.len() || !crate::normals::is_line(points, &nb) {
+                    break;
+                }
+                kk *= 4;
+                nb = tree.nearest_k(p, kk + 1);
+            }
             let r2 = (points[*nb.last().expect("k + 1 ≥ 1")] - p).norm_squared();
-            std::f64::consts::PI * r2 / k as Real
+            std::f64::consts::PI * r2 / kk as Real
         })
         .collect();
     // An isolated point (an outlier) has a huge disc; capped at a few times the median, it cannot
@@ -157,6 +169,10 @@ pub fn area_weights(points: &[Point3], k: usize) -> Vec<Real> {
     w.iter_mut().for_each(|x| *x = x.min(cap));
     w
 }
+
+/// Times the neighbourhood of [`area_weights`] widens (fourfold each) while it is a line: 8 · 4³ = 512
+/// neighbours reach across laser lines a 36-view scan leaves 10° apart.
+pub const AREA_MAX_WIDENINGS: usize = 3;
 
 /// Area weights are capped at this multiple of their median.
 const WEIGHT_CAP: Real = 4.0;
@@ -282,6 +298,18 @@ pub fn sample(chi: &[f32], n: usize, origin: Point3, cell: Real, p: &Point3) -> 
     (0..8).map(|c| chi[index(n, base, c)] as Real * w[c]).sum()
 }
 
+/// The level of χ the surface passes through: χ's mean over the samples, each weighed by the area it
+/// stands for (as it was splatted), so a densely sampled part — a cap of even samples beside sparse
+/// laser lines, a region two scans overlap — does not pull the whole surface toward its own level.
+pub fn iso_level(chi: &[f32], cube: &Cube, points: &[Point3], weights: &[Real]) -> Real {
+    let (sum, total) = points
+        .par_iter()
+        .zip(weights)
+        .map(|(p, &w)| (w * sample(chi, cube.n, cube.origin, cube.cell(), p), w))
+        .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+    if total > 0.0 { sum / total } else { 0.0 }
+}
+
 /// Reconstructs a watertight mesh from an oriented cloud by the global FFT method.
 pub fn reconstruct_fft(cloud: &PointCloud, params: &FftParams) -> Result<(TriMesh, FftReport), ReconstructError> {
     if cloud.is_empty() {
@@ -303,7 +331,7 @@ pub fn reconstruct_fft(cloud: &PointCloud, params: &FftParams) -> Result<(TriMes
     let cube = Cube { origin, size, n };
     let chi = indicator(&cloud.positions, normals, &weights, &cube, params.smoothing_cells, &mut report);
     let t = Instant::now();
-    let iso = cloud.positions.par_iter().map(|p| sample(&chi, n, origin, cell, p)).sum::<Real>() / cloud.len() as Real;
+    let iso = iso_level(&chi, &cube, &cloud.positions, &weights);
     report.iso = iso;
     let frame = GridFrame { dims: [n; 3], origin, spacing: cell };
     // The grid's outer layer counts as outside, so the surface is closed even where an open scan lets
