@@ -95,7 +95,25 @@ pub fn print_summary(o: &mut impl Write, out: &Path, report: &ProcessReport) -> 
     if let Some(s) = &report.merge {
         writeln!(o, "  merged: {} points ({})", s.report.points, status(s))?;
     }
-    if let Some(s) = &report.register {
+    if let Some(s) = &report.register
+        && let Some(lr) = &s.report.lasers
+    {
+        for a in &lr.lasers {
+            writeln!(
+                o,
+                "  registered laser {} onto laser {}: corrected {:.3}° and {:.3} mm; surfaces {:.3} mm apart, {:.3} mm \
+                 after (lines' noise {:.3} mm) ({})",
+                a.laser,
+                lr.reference,
+                a.rotation_deg,
+                a.shift_mm,
+                a.gap_before_mm,
+                a.gap_after_mm,
+                lr.noise_mm,
+                status(s)
+            )?;
+        }
+    } else if let Some(s) = &report.register {
         let r = &s.report;
         writeln!(
             o,

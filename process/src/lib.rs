@@ -49,7 +49,7 @@ pub mod merge;
 pub use merge as placement;
 
 pub mod register;
-pub use register::{icp, multiview, register_scan};
+pub use register::{icp, lasers, multiview, register_scan};
 
 pub mod fuse;
 pub use fuse::{mean_shift, orient, spatial_order};

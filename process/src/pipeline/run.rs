@@ -526,7 +526,7 @@ fn view_grids(outputs: &[ViewOutput]) -> Vec<ViewGrid<'_>> {
                 Measured::Grid(g) => ViewData::Grid(g),
                 Measured::Sparse(s) => ViewData::Sparse(s),
             };
-            ViewGrid { view: vo.view, angle_deg: vo.angle_deg, data }
+            ViewGrid { view: vo.view, angle_deg: vo.angle_deg, laser: vo.laser, data }
         })
         .collect()
 }
@@ -573,8 +573,13 @@ fn scan_stages(
 
     // Register.
     if params.until >= Stage::Register {
+        // A laser scan registers laser against laser: it needs two lasers' lines.
+        let enough = match method {
+            Method::Laser => outputs.iter().filter_map(|o| o.laser).max().is_some_and(|k| k >= 1),
+            _ => outputs.len() >= 2,
+        };
         match (method, rig.turntable.as_ref()) {
-            (Method::StructuredLight, Some(axis)) if outputs.len() >= 2 => {
+            (_, Some(axis)) if enough => {
                 let t = Instant::now();
                 let fp = grid_inputs(
                     Fingerprint::new(json!({
@@ -619,12 +624,12 @@ fn scan_stages(
                 progress(Stage::Register, 1, 1);
             }
             (Method::StructuredLight, Some(_)) => report.skipped.push("register: needs at least two views".into()),
-            (Method::StructuredLight, None) => {
-                report.skipped.push("register: the rig has no [turntable] to start from".into())
-            }
-            _ => report
-                .skipped
-                .push("register: laser views are single lines per laser, without the surface normals ICP needs".into()),
+            (_, None) => report.skipped.push("register: the rig has no [turntable] to start from".into()),
+            _ => report.skipped.push(
+                "register: one laser's lines only: a line alone fixes no pose, and there is no second laser to check \
+                 it against"
+                    .into(),
+            ),
         }
     }
     drop(outputs);
@@ -793,8 +798,17 @@ pub fn register_processed(
     let rig_path = Manifest::inside(scan, &manifest.rig, "rig")?;
     let rig = Rig::read(&rig_path)?;
     let axis = rig.turntable.ok_or_else(|| Error::NoTurntable { rig: rig_path.clone() })?;
-    let mut grids = Vec::new();
+    let (mut grids, mut lines) = (Vec::new(), Vec::new());
     for (v, view) in manifest.views.iter().enumerate().filter(|(_, view)| view.complete) {
+        if manifest.method == Method::Laser {
+            for k in 0..rig.lasers.len() {
+                let p = processed.join(Layout::laser_grid(v, k));
+                if p.is_file() {
+                    lines.push((v, view.angle_deg, k, rig::ply::read_sparse_view(&p)?));
+                }
+            }
+            continue;
+        }
         for name in [Layout::denoised(v), Layout::grid(v)] {
             let p = processed.join(&name);
             if p.is_file() {
@@ -804,6 +818,12 @@ pub fn register_processed(
         }
     }
     let crop = CropParams { radius_mm: crop.radius_mm.or(rig.platter_radius_mm), ..*crop };
-    let views: Vec<ViewGrid> = grids.iter().map(|(v, a, g)| ViewGrid::grid(*v, *a, g)).collect();
+    let mut views: Vec<ViewGrid> = grids.iter().map(|(v, a, g)| ViewGrid::grid(*v, *a, g)).collect();
+    views.extend(lines.iter().map(|(v, a, k, s)| ViewGrid {
+        view: *v,
+        angle_deg: *a,
+        laser: Some(*k),
+        data: ViewData::Sparse(s),
+    }));
     stages::register(&views, &axis, &crop, params).map_err(|source| Error::Stage { stage: Stage::Register, source })
 }

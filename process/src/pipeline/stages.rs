@@ -7,6 +7,7 @@
 use crate::denoise::{DenoiseError, DenoiseParams, DenoiseReport};
 use crate::grid_normals::estimate_normals;
 use crate::icp::IcpError;
+use crate::lasers::{LaserAlignParams, LasersReport};
 use crate::mean_shift::{MeanShiftParams, MeanShiftReport};
 use crate::multiview::MultiViewReport;
 use crate::placement::{CropParams, place_sparse, place_view};
@@ -191,6 +192,8 @@ pub struct ViewGrid<'a> {
     pub view: usize,
     /// Turntable angle, degrees, counter-clockwise seen from above.
     pub angle_deg: Real,
+    /// The laser whose line this is (a laser scan has one per view and laser).
+    pub laser: Option<usize>,
     /// The measurements.
     pub data: ViewData<'a>,
 }
@@ -198,7 +201,7 @@ pub struct ViewGrid<'a> {
 impl<'a> ViewGrid<'a> {
     /// A view of a range grid.
     pub fn grid(view: usize, angle_deg: Real, grid: &'a RangeGrid) -> Self {
-        ViewGrid { view, angle_deg, data: ViewData::Grid(grid) }
+        ViewGrid { view, angle_deg, laser: None, data: ViewData::Grid(grid) }
     }
 }
 
@@ -272,21 +275,24 @@ pub fn fill_normals(cloud: &mut PointCloud, centres: &std::collections::HashMap<
 /// merges them into one cloud with view ids and confidences; points without a normal get one
 /// ([`fill_normals`]), so every merged cloud is oriented.
 pub fn merge(views: &[ViewGrid], turntable: Option<&TurntableAxis>, crop: &CropParams) -> (PointCloud, MergeReport) {
+    let poses: Vec<Isometry3> = views.iter().map(|v| turntable_pose(turntable, v.angle_deg)).collect();
+    merge_at(views, &poses, crop)
+}
+
+/// [`merge`] with each view at its own camera → object pose.
+fn merge_at(views: &[ViewGrid], poses: &[Isometry3], crop: &CropParams) -> (PointCloud, MergeReport) {
     use rayon::prelude::*;
     let placed: Vec<PointCloud> = views
         .par_iter()
-        .map(|v| {
-            let pose = turntable_pose(turntable, v.angle_deg);
-            match v.data {
-                ViewData::Grid(g) => place_view(g, &pose, crop, v.view as u32),
-                ViewData::Sparse(s) => place_sparse(s, &pose, crop, v.view as u32),
-            }
+        .zip(poses)
+        .map(|(v, pose)| match v.data {
+            ViewData::Grid(g) => place_view(g, pose, crop, v.view as u32),
+            ViewData::Sparse(s) => place_sparse(s, pose, crop, v.view as u32),
         })
         .collect();
     let mut report = MergeReport { placed_points: placed.iter().map(|c| c.len()).collect(), ..Default::default() };
     let mut cloud = crate::placement::merge(placed);
-    let centres =
-        views.iter().map(|v| (v.view as u32, turntable_pose(turntable, v.angle_deg) * Point3::origin())).collect();
+    let centres = views.iter().zip(poses).map(|(v, pose)| (v.view as u32, pose * Point3::origin())).collect();
     report.sensor_normals = fill_normals(&mut cloud, &centres);
     report.points = cloud.len();
     (cloud, report)
@@ -310,13 +316,19 @@ pub struct RegisterReport {
     pub refused: Vec<Refused>,
     /// The multi-view refinement's rounds.
     pub refinement: MultiViewReport,
+    /// A laser scan's: how its lasers were aligned with each other (its views are lines, not refined
+    /// one by one).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lasers: Option<LasersReport>,
 }
 
 impl RegisterReport {
     /// The plausibility check: with refused corrections, an error unless `force`, else one warning
     /// per refused view.
+    /// A laser scan's lasers that disagree by more than the lines' noise are warnings too.
     pub fn check(&self, tolerance: &Tolerance, force: bool) -> Result<Vec<String>, StageError> {
-        let Some(first) = self.refused.first() else { return Ok(Vec::new()) };
+        let disagreements = self.lasers.iter().flat_map(LasersReport::disagreements);
+        let Some(first) = self.refused.first() else { return Ok(disagreements.collect()) };
         let limit = format!(
             "beyond the {}° and {} mm a turntable can be off (--max-correction-deg, --max-correction-mm)",
             tolerance.rotation_deg, tolerance.shift_mm
@@ -333,21 +345,24 @@ impl RegisterReport {
                     .into(),
             });
         }
-        Ok(self.refused.iter().map(|r| format!("{r}, {limit}: kept at its turntable pose (--force)")).collect())
+        let kept = self.refused.iter().map(|r| format!("{r}, {limit}: kept at its turntable pose (--force)"));
+        Ok(kept.chain(disagreements).collect())
     }
 }
 
 /// Refines the views' poses from the turntable's by multi-view ICP (ch. 2.2) and merges them again,
 /// cropped like [`merge`]. Returns the registered cloud and every view's pose; corrections beyond the
 /// tolerance are not applied but listed in the report ([`RegisterReport::check`] decides on them).
+/// A laser scan's views (lines) are registered laser against laser instead ([`register_lasers`]).
 pub fn register(
     views: &[ViewGrid],
     axis: &TurntableAxis,
     crop: &CropParams,
     params: &RegisterParams,
 ) -> Result<(PointCloud, Vec<ViewPose>, RegisterReport), StageError> {
-    // Pairwise ICP needs each view's surface with its grid normals: range grids only (a laser line
-    // overlaps no other view's).
+    if views.iter().any(|v| matches!(v.data, ViewData::Sparse(_))) {
+        return register_lasers(views, axis, crop, params);
+    }
     let refs: Vec<(usize, Real, &RangeGrid)> = views
         .iter()
         .filter_map(|v| match v.data {
@@ -371,13 +386,103 @@ pub fn register(
         refused: poses
             .iter()
             .filter(|p| p.refused)
-            .map(|p| Refused { view: p.view, rotation_deg: p.rotation_change_deg, shift_mm: p.shift_mm })
+            .map(|p| Refused { view: p.view, laser: None, rotation_deg: p.rotation_change_deg, shift_mm: p.shift_mm })
             .collect(),
         points: cloud.len(),
         refinement,
+        lasers: None,
     };
     Ok((cloud, poses, report))
 }
+
+/// Registers a laser scan: each laser's lines, placed by the turntable, form one cloud, and every
+/// laser's cloud is aligned with the reference laser's ([`crate::lasers`]); the lines are then merged
+/// again at their corrected placements, cropped like [`merge`]. A correction beyond the tolerance is
+/// not applied but listed as refused. Needs lines of at least two lasers.
+pub fn register_lasers(
+    views: &[ViewGrid],
+    axis: &TurntableAxis,
+    crop: &CropParams,
+    params: &RegisterParams,
+) -> Result<(PointCloud, Vec<ViewPose>, RegisterReport), StageError> {
+    let lasers = views.iter().map(|v| v.laser.unwrap_or(0) + 1).max().unwrap_or(0);
+    let turntable: Vec<Isometry3> = views.iter().map(|v| axis.object_from_camera(v.angle_deg)).collect();
+    let clouds: Vec<PointCloud> = (0..lasers)
+        .map(|k| {
+            let mine: Vec<usize> = (0..views.len()).filter(|&i| views[i].laser.unwrap_or(0) == k).collect();
+            let lines: Vec<ViewGrid> = mine.iter().map(|&i| views[i]).collect();
+            let poses: Vec<Isometry3> = mine.iter().map(|&i| turntable[i]).collect();
+            merge_at(&lines, &poses, crop).0
+        })
+        .collect();
+    if clouds.iter().filter(|c| !c.is_empty()).count() < 2 {
+        return Err(StageError::TooFewViews(clouds.iter().filter(|c| !c.is_empty()).count()));
+    }
+    let noise = crate::lasers::line_noise(views.iter().filter_map(|v| match v.data {
+        ViewData::Sparse(s) => Some((&s.points[..], &s.pixels[..])),
+        ViewData::Grid(_) => None,
+    }))
+    .unwrap_or(0.0);
+    let align = LaserAlignParams {
+        icp: params.refine.icp,
+        prior: params.refine.prior,
+        reach_mm: LASER_GAP_REACH * params.refine.icp.min_distance,
+    };
+    let (mut corrections, mut lr) = crate::lasers::align_lasers(&clouds, noise, &align)?;
+    let mut refused = Vec::new();
+    for a in &lr.lasers {
+        if !params.tolerance.allows(a.rotation_deg, a.shift_mm) {
+            corrections[a.laser] = Isometry3::identity();
+            let first = views.iter().find(|v| v.laser.unwrap_or(0) == a.laser).map_or(0, |v| v.view);
+            refused.push(Refused {
+                view: first,
+                laser: Some(a.laser),
+                rotation_deg: a.rotation_deg,
+                shift_mm: a.shift_mm,
+            });
+        }
+    }
+    lr.lasers
+        .iter_mut()
+        .filter(|a| refused.iter().any(|r| r.laser == Some(a.laser)))
+        .for_each(|a| a.gap_after_mm = a.gap_before_mm);
+    let poses: Vec<Isometry3> =
+        views.iter().zip(&turntable).map(|(v, t)| corrections[v.laser.unwrap_or(0)] * t).collect();
+    let (cloud, mr) = merge_at(views, &poses, crop);
+    let view_poses = views
+        .iter()
+        .zip(&poses)
+        .map(|(v, pose)| {
+            let a = lr.lasers.iter().find(|a| Some(a.laser) == v.laser);
+            let m = pose.to_homogeneous();
+            ViewPose {
+                view: v.view,
+                laser: v.laser,
+                angle_deg: v.angle_deg,
+                object_from_camera: std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)])),
+                rotation_change_deg: a.map_or(0.0, |a| a.rotation_deg),
+                shift_mm: a.map_or(0.0, |a| a.shift_mm),
+                refused: refused.iter().any(|r| r.laser.is_some() && r.laser == v.laser),
+            }
+        })
+        .collect();
+    let applied = || lr.lasers.iter().filter(|a| !refused.iter().any(|r| r.laser == Some(a.laser)));
+    let report = RegisterReport {
+        views: views.len(),
+        max_rotation_change_deg: applied().map(|a| a.rotation_deg).fold(0.0, Real::max),
+        max_shift_mm: applied().map(|a| a.shift_mm).fold(0.0, Real::max),
+        points: cloud.len(),
+        sensor_normals: mr.sensor_normals,
+        refused,
+        refinement: MultiViewReport::default(),
+        lasers: Some(lr),
+    };
+    Ok((cloud, view_poses, report))
+}
+
+/// A laser's point counts in the gap between two lasers' surfaces within this many ICP distance
+/// floors (`min_distance`) of the other surface.
+const LASER_GAP_REACH: Real = 2.0;
 
 /// Fusion: mean shift (ch. 3), then — for inputs without normals, whose kernel normals have no side —
 /// a consistent orientation over a spanning tree of `orient_k` neighbours, the top facing up.

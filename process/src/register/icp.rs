@@ -37,6 +37,21 @@ impl IcpTarget {
     pub fn is_empty(&self) -> bool {
         self.points.is_empty()
     }
+
+    /// The nearest target point to `p`: its index and squared distance.
+    pub fn nearest(&self, p: &Point3) -> (usize, Real) {
+        self.tree.nearest(p)
+    }
+
+    /// Target point `j`.
+    pub fn point(&self, j: usize) -> Point3 {
+        self.points[j]
+    }
+
+    /// Target point `j`'s unit normal.
+    pub fn normal(&self, j: usize) -> Vector3 {
+        self.normals[j]
+    }
 }
 
 /// ICP settings. Lengths are in the data's units (the defaults suit millimetres).

@@ -1,7 +1,9 @@
 //! Registration (thesis ch. 2.2): robust point-to-plane ICP between two views ([`icp`]), all views
 //! refined together from their turntable poses ([`multiview`]), and a processed scan's range grids
-//! through both and merged again ([`register_scan`]).
+//! through both and merged again ([`register_scan`]); a laser scan's lasers aligned with each
+//! other ([`lasers`]).
 
 pub mod icp;
+pub mod lasers;
 pub mod multiview;
 pub mod register_scan;

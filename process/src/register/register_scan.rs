@@ -22,6 +22,14 @@ pub struct Tolerance {
     pub shift_mm: Real,
 }
 
+impl Tolerance {
+    /// Whether a correction of `rotation_deg` and `shift_mm` is within the tolerance (NaN is not: a pose
+    /// that is not a number is no correction).
+    pub fn allows(&self, rotation_deg: Real, shift_mm: Real) -> bool {
+        rotation_deg <= self.rotation_deg && shift_mm <= self.shift_mm
+    }
+}
+
 impl Default for Tolerance {
     fn default() -> Self {
         Tolerance { rotation_deg: 5.0, shift_mm: 10.0 }
@@ -40,8 +48,11 @@ pub struct RegisterParams {
 /// A correction beyond the [`Tolerance`], not applied.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub struct Refused {
-    /// The view.
+    /// The view (for a laser's correction, its first view).
     pub view: usize,
+    /// A laser whose whole cloud the correction moved (a laser scan's registration), not one view.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub laser: Option<usize>,
     /// The rotation registration found (degrees).
     pub rotation_deg: Real,
     /// The centroid's movement it found (mm).
@@ -50,10 +61,17 @@ pub struct Refused {
 
 impl std::fmt::Display for Refused {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let what = match self.laser {
+            Some(k) => format!("laser {k}'s lines"),
+            None => format!("view {}", self.view),
+        };
         write!(
             f,
-            "registration would turn view {} by {:.1}° and move it {:.1} mm from its turntable pose",
-            self.view, self.rotation_deg, self.shift_mm
+            "registration would turn {what} by {:.1}° and move {} {:.1} mm from {} turntable pose",
+            self.rotation_deg,
+            if self.laser.is_some() { "them" } else { "it" },
+            self.shift_mm,
+            if self.laser.is_some() { "their" } else { "its" }
         )
     }
 }
@@ -63,6 +81,9 @@ impl std::fmt::Display for Refused {
 pub struct ViewPose {
     /// View index.
     pub view: usize,
+    /// The laser whose line this is (a laser scan: one pose per view and laser).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub laser: Option<usize>,
     /// Turntable angle (degrees).
     pub angle_deg: Real,
     /// The refined camera → object transform, row-major 4 × 4.
@@ -131,13 +152,13 @@ pub fn register_grids(
         let c = rig::Point3::from(views[k].points.iter().fold(rig::Vector3::zeros(), |a, p| a + p.coords) / n);
         let rotation_change_deg = (poses[k].rotation.inverse() * initial[k].rotation).angle().to_degrees();
         let shift_mm = (poses[k] * c - initial[k] * c).norm();
-        // NaN counts as beyond: a pose that is not a number is no correction.
-        let refused = !(rotation_change_deg <= params.tolerance.rotation_deg && shift_mm <= params.tolerance.shift_mm);
+        let refused = !params.tolerance.allows(rotation_change_deg, shift_mm);
         let pose = if refused { initial[k] } else { poses[k] };
         clouds.push(place_view(grid, &pose, crop, v as u32));
         let m = pose.to_homogeneous();
         view_poses.push(ViewPose {
             view: v,
+            laser: None,
             angle_deg: angle,
             object_from_camera: std::array::from_fn(|r| std::array::from_fn(|col| m[(r, col)])),
             rotation_change_deg,
