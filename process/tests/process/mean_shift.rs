@@ -40,9 +40,15 @@ fn bunny_with_25k_outliers_is_cleaned_and_smoothed() {
     let params = MeanShiftParams::default();
     let result = mean_shift(&cloud, &params);
     let seconds = start.elapsed().as_secs_f64();
-    // Outliers: the added points farther than 1 mm from the surface.
-    let far: Vec<bool> =
-        cloud.positions.iter().enumerate().map(|(i, p)| i >= surface_points && dist.distance(p) > 1.0).collect();
+    // Outliers: the added points farther than 1 mm from the surface. (Searched only that far: an
+    // exact distance for a point tens of millimetres off walks hundreds of thousands of index cells,
+    // and the 25 K outliers made this test take minutes.)
+    let far: Vec<bool> = cloud
+        .positions
+        .iter()
+        .enumerate()
+        .map(|(i, p)| i >= surface_points && dist.distance_up_to(p, 1.0) > 1.0)
+        .collect();
     let far_total = far.iter().filter(|&&f| f).count();
     let far_removed = (0..far.len()).filter(|&i| far[i] && !result.kept[i]).count();
     let removed = result.kept.iter().filter(|&&k| !k).count();
@@ -61,7 +67,8 @@ fn bunny_with_25k_outliers_is_cleaned_and_smoothed() {
         );
     }
     let removed_outliers = (surface_points..cloud.len()).filter(|&i| !result.kept[i]).count();
-    let mut d: Vec<Real> = result.cloud.positions.iter().map(|p| dist.distance(p)).collect();
+    // Beyond 1 mm only "beyond" counts: the median and p99 asserted below are far under it.
+    let mut d: Vec<Real> = result.cloud.positions.iter().map(|p| dist.distance_up_to(p, 1.0)).collect();
     d.sort_by(Real::total_cmp);
     let (median, p99) = (d[d.len() / 2], d[d.len() * 99 / 100]);
     let r = &result.report;
