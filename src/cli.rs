@@ -75,6 +75,18 @@ pub enum Command {
     Turntable(TurntableArgs),
     /// Run a virtual Horus 0.2 turntable on a pseudo-terminal and print its port (for testing hosts).
     VirtualTurntable(VirtualTurntableArgs),
+    /// Bring in another scanner's calibration as a rig: Horus' settings.json, FabScanPi's config.json.
+    Import {
+        /// Which scanner's file.
+        #[command(subcommand)]
+        command: ImportCommand,
+    },
+    /// Write a rig as another scanner's calibration file: Horus' settings.json, FabScanPi's config.json.
+    Export {
+        /// Which scanner's file.
+        #[command(subcommand)]
+        command: ExportCommand,
+    },
     /// Cameras: list the video devices.
     Camera {
         /// What to do.
@@ -86,6 +98,48 @@ pub enum Command {
         /// What to do.
         #[command(subcommand)]
         command: ProjectorCommand,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+pub enum ImportCommand {
+    /// Horus' settings.json (its calibration_settings: camera, distortion, both laser planes, platform
+    /// pose, image rotate/flip) into a rig file.
+    Horus {
+        /// The settings.json.
+        settings: PathBuf,
+        /// The rig file to write.
+        #[arg(long, short)]
+        out: PathBuf,
+    },
+    /// FabScanPi's config.json (camera, image rotate/flip, laser planes and colour, platform pose,
+    /// turntable radius and height as the working volume) into a rig file.
+    Fabscan {
+        /// The config.json (or the folder holding it).
+        config: PathBuf,
+        /// The rig file to write.
+        #[arg(long, short)]
+        out: PathBuf,
+    },
+}
+
+#[derive(Subcommand, Debug)]
+pub enum ExportCommand {
+    /// A rig as Horus' settings.json (calibration_settings only; merge it into Horus' own file).
+    Horus {
+        /// The rig file.
+        rig: PathBuf,
+        /// The settings file to write.
+        #[arg(long, short)]
+        out: PathBuf,
+    },
+    /// A rig as FabScanPi's config.json (its calibration, camera, laser and turntable blocks).
+    Fabscan {
+        /// The rig file.
+        rig: PathBuf,
+        /// The config file to write.
+        #[arg(long, short)]
+        out: PathBuf,
     },
 }
 

@@ -16,6 +16,7 @@ mod reconstruct_cmd;
 mod register_cmd;
 mod remesh_cmd;
 mod scan_cmd;
+mod scanner_files;
 mod sim_cmd;
 mod stage_args;
 
@@ -53,6 +54,8 @@ fn main() -> ExitCode {
         cli::Command::Scan(a) => scan_cmd::scan(&a),
         cli::Command::Turntable(a) => scan_cmd::turntable(&a),
         cli::Command::VirtualTurntable(a) => scan_cmd::virtual_turntable(&a),
+        cli::Command::Import { command } => scanner_files::import(&command),
+        cli::Command::Export { command } => scanner_files::export(&command),
         cli::Command::Camera { command } => scan_cmd::camera(&command),
         cli::Command::Projector { command } => scan_cmd::projector(&command),
     };

@@ -6,6 +6,35 @@
 use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
 use std::path::Path;
 
+/// How a camera's frames are turned before its calibration applies, in this order: transposed (a
+/// camera mounted on its side), mirrored left–right, mirrored top–bottom. FabScanPi's `rotate`,
+/// `hflip`, `vflip` and Horus' `camera_rotate`, `camera_hflip`, `camera_vflip` mean exactly this.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImageTransform {
+    /// Rows become columns.
+    #[serde(default)]
+    pub transpose: bool,
+    /// Then mirrored left–right.
+    #[serde(default)]
+    pub hflip: bool,
+    /// Then mirrored top–bottom.
+    #[serde(default)]
+    pub vflip: bool,
+}
+
+impl ImageTransform {
+    /// True when frames are used as captured.
+    pub fn is_identity(&self) -> bool {
+        *self == ImageTransform::default()
+    }
+
+    /// The size of a `width × height` frame after the transform.
+    pub fn size(&self, width: u32, height: u32) -> (u32, u32) {
+        if self.transpose { (height, width) } else { (width, height) }
+    }
+}
+
 /// An 8-bit image.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Image8 {
@@ -51,6 +80,25 @@ impl Image8 {
             }
         }
         Image8 { data, ..self.clone() }
+    }
+
+    /// The image mirrored top to bottom.
+    pub fn flipped(&self) -> Image8 {
+        let row = self.width as usize * self.channels as usize;
+        let data = self.data.chunks_exact(row.max(1)).rev().flatten().copied().collect();
+        Image8 { data, ..self.clone() }
+    }
+
+    /// The image as `t` turns it: transposed first, then mirrored left–right, then top–bottom.
+    pub fn transformed(&self, t: &ImageTransform) -> Image8 {
+        let mut out = if t.transpose { self.transposed() } else { self.clone() };
+        if t.hflip {
+            out = out.mirrored();
+        }
+        if t.vflip {
+            out = out.flipped();
+        }
+        out
     }
 
     /// Grey by Rec. 601 luma (what OpenCV's `cvtColor(…, COLOR_RGB2GRAY)` computes).

@@ -23,6 +23,17 @@ impl LaserPlane {
             .then(|| LaserPlane { normal: UnitVector3::new_unchecked(n / len), distance: d / len })
     }
 
+    /// The plane `n·X = d` as a file wrote it: a normal within 1e-9 of unit length is kept bit for bit
+    /// (normalising it would change its last digits, and a written rig or calibration would not read
+    /// back the same); any other is normalised as [`LaserPlane::new`] does.
+    pub fn as_written(n: Vector3, d: Real) -> Option<Self> {
+        if (n.norm() - 1.0).abs() < 1e-9 && d.is_finite() {
+            Some(LaserPlane { normal: UnitVector3::new_unchecked(n), distance: d })
+        } else {
+            LaserPlane::new(n, d)
+        }
+    }
+
     /// The plane through `point` with normal `n`.
     pub fn from_point_normal(point: &Point3, n: Vector3) -> Option<Self> {
         LaserPlane::new(n, n.dot(&point.coords))

@@ -88,6 +88,7 @@ pub mod patterns;
 pub use patterns::{Axis, Pattern, PhaseShift};
 
 pub mod scan_folder;
+pub mod scanner_calibration;
 pub use scan_folder::{Manifest, Method};
 
 /// Meshes and clouds by file extension.

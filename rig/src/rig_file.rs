@@ -33,6 +33,12 @@
 //! axis_direction = [0.0, -1.0, 0.0]
 //! platter_radius_mm = 100.0      # optional: the working volume is the cylinder of this radius
 //! working_height_mm = 150.0      # optional: … and this height above the platter
+//! # platform_rotation = [[…], […], […]]  # optional: another scanner's platform pose, kept for export
+//!
+//! [image]                        # optional: frames turned before the camera applies (in this order)
+//! transpose = true               # rows become columns (a camera on its side)
+//! hflip = true                   # then mirrored left–right
+//! vflip = false                  # then mirrored top–bottom
 //! ```
 
 use crate::camera::{Distortion, PinholeCamera};
@@ -77,6 +83,13 @@ pub struct Rig {
     /// bounds the working volume, the only place a laser line can be (a reflection on the scanner's
     /// wall lies outside).
     pub working_height_mm: Option<Real>,
+    /// How the camera's frames are turned before [`Rig::camera`] applies (the camera's width and
+    /// height are the turned frame's); the identity for frames used as captured.
+    pub image: crate::image::ImageTransform,
+    /// The platform's full pose rotation as another scanner's calibration gave it (columns: the
+    /// platform's x, y, z axes in the camera frame; z is the turntable axis), kept so that exporting
+    /// the rig back gives the same numbers. scanrig itself uses only the axis.
+    pub platform_rotation: Option<Matrix3>,
 }
 
 impl Rig {
@@ -104,6 +117,8 @@ struct RigToml {
     lasers: Vec<LaserToml>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     turntable: Option<TurntableToml>,
+    #[serde(default, skip_serializing_if = "crate::image::ImageTransform::is_identity")]
+    image: crate::image::ImageTransform,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -153,6 +168,8 @@ struct TurntableToml {
     platter_radius_mm: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     working_height_mm: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    platform_rotation: Option<[[f64; 3]; 3]>,
 }
 
 fn linear() -> f64 {
@@ -210,7 +227,8 @@ fn unit(v: [f64; 3], field: &str) -> Result<UnitVector3, ParseError> {
     if !(n > 0.0 && n.is_finite()) {
         return Err(invalid(field, "must be a non-zero, finite direction"));
     }
-    Ok(UnitVector3::new_normalize(v))
+    // Unit length as written is kept bit for bit, so a rig reads back exactly as it was written.
+    Ok(if (n - 1.0).abs() < 1e-9 { UnitVector3::new_unchecked(v) } else { UnitVector3::new_normalize(v) })
 }
 
 fn finite(v: &[f64], field: &str) -> Result<(), ParseError> {
@@ -276,7 +294,7 @@ impl Rig {
             let field = format!("lasers[{i}]");
             finite(&[l.distance_mm], &field)?;
             // The file's plane is n·X = d for the n as written: normalising n scales d with it.
-            let plane = LaserPlane::new(Vector3::from(l.normal), l.distance_mm)
+            let plane = LaserPlane::as_written(Vector3::from(l.normal), l.distance_mm)
                 .ok_or_else(|| invalid(&format!("{field}.normal"), "must be a non-zero, finite direction"))?;
             lasers.push(Laser { name: l.name.clone(), plane, colour: l.colour });
         }
@@ -299,7 +317,33 @@ impl Rig {
         if working_height_mm.is_some_and(|h| !(h.is_finite() && h > 0.0)) {
             return Err(invalid("turntable.working_height_mm", "must be positive"));
         }
-        Ok(Rig { name: t.name, camera, projector, lasers, turntable, platter_radius_mm, working_height_mm })
+        let platform_rotation = match t.turntable.as_ref().and_then(|tt| tt.platform_rotation) {
+            None => None,
+            Some(r) => {
+                let field = "turntable.platform_rotation";
+                let m = Matrix3::from_row_slice(r.as_flattened());
+                finite(m.as_slice(), field)?;
+                if !((m.transpose() * m - Matrix3::identity()).norm() < 1e-6 && m.determinant() > 0.0) {
+                    return Err(invalid(field, "must be a rotation matrix (orthonormal, determinant +1)"));
+                }
+                let axis = turntable.expect("platform_rotation comes with the turntable").direction;
+                if m.column(2).normalize().dot(&axis) < (0.01f64).to_radians().cos() {
+                    return Err(invalid(field, "its third column (the platform's z) must be axis_direction"));
+                }
+                Some(m)
+            }
+        };
+        Ok(Rig {
+            name: t.name,
+            camera,
+            projector,
+            lasers,
+            turntable,
+            platter_radius_mm,
+            working_height_mm,
+            image: t.image,
+            platform_rotation,
+        })
     }
 
     /// The rig as TOML text, with a comment block stating the conventions.
@@ -333,7 +377,9 @@ impl Rig {
                 axis_direction: a.direction.into_inner().into(),
                 platter_radius_mm: self.platter_radius_mm,
                 working_height_mm: self.working_height_mm,
+                platform_rotation: self.platform_rotation.map(|m| [0, 1, 2].map(|i| [m[(i, 0)], m[(i, 1)], m[(i, 2)]])),
             }),
+            image: self.image,
         };
         let body = toml::to_string(&t).expect("a rig always serialises: plain numbers, strings and arrays");
         format!(
@@ -341,7 +387,8 @@ impl Rig {
              # camera/lens: intrinsics in px, distortion = [k1, k2, p1, p2, k3].\n\
              # projector: X_projector = rotation · X_camera + translation_mm; gamma: light ∝ drive^gamma.\n\
              # lasers: plane normal · X = distance_mm in the camera frame.\n\
-             # turntable: platter centre and up axis in the camera frame.\n\n{body}"
+             # turntable: platter centre and up axis in the camera frame.\n\
+             # image: frames are transposed, then mirrored (hflip, vflip) before the camera applies.\n\n{body}"
         )
     }
 

@@ -21,6 +21,15 @@ pub struct TurntableAxis {
 impl TurntableAxis {
     /// The object frame at θ = 0: maps camera coordinates to object coordinates.
     pub fn object_from_camera_at_zero(&self) -> Isometry3 {
+        let [x, y, z] = self.axes_at_zero();
+        // Rows are the object axes expressed in the camera frame: X_obj = B·(X_cam − point).
+        let b = Matrix3::from_rows(&[x.transpose(), y.transpose(), z.transpose()]);
+        let rot = Rotation3::from_matrix_unchecked(b);
+        Isometry3::from_parts((rot * -self.point.coords).into(), rot.into())
+    }
+
+    /// The object frame's x, y and z axes at θ = 0 in the camera frame (z is `direction`, bit for bit).
+    pub fn axes_at_zero(&self) -> [Vector3; 3] {
         let z = self.direction.into_inner();
         let toward = self.point.coords - z * z.dot(&self.point.coords);
         // A camera on the axis has no "toward": any horizontal direction will do.
@@ -31,10 +40,7 @@ impl TurntableAxis {
             (helper - z * z.dot(&helper)).normalize()
         };
         let x = y.cross(&z);
-        // Rows are the object axes expressed in the camera frame: X_obj = B·(X_cam − point).
-        let b = Matrix3::from_rows(&[x.transpose(), y.transpose(), z.transpose()]);
-        let rot = Rotation3::from_matrix_unchecked(b);
-        Isometry3::from_parts((rot * -self.point.coords).into(), rot.into())
+        [x, y, z]
     }
 
     /// Maps camera points of the view captured at `theta_deg` into the object frame.

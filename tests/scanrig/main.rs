@@ -7,5 +7,6 @@ mod data_files;
 #[cfg(feature = "projector-window")]
 mod projector_window;
 mod run;
+mod scanner_files;
 mod shared_demo;
 mod stages;

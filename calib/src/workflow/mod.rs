@@ -202,6 +202,8 @@ pub fn camera_only(name: &str, camera: PinholeCamera) -> Rig {
         turntable: None,
         platter_radius_mm: None,
         working_height_mm: None,
+        image: Default::default(),
+        platform_rotation: None,
     }
 }
 

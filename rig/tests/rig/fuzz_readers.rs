@@ -35,6 +35,9 @@ fn read_everything(bytes: &[u8]) {
     let _ = rig::scan_folder::parse_progress(bytes, 8);
     let _ = rig::remesh_inputs::parse_constraints(bytes);
     let _ = rig::remesh_inputs::parse_face_values(bytes, 3);
+    let text = String::from_utf8_lossy(bytes);
+    let _ = rig::scanner_calibration::rig_from_fabscan(&text);
+    let _ = rig::scanner_calibration::rig_from_horus(&text);
 }
 
 fn seeds() -> Vec<Vec<u8>> {
@@ -82,6 +85,8 @@ element tristrips 1\nproperty list int int vertex_indices\nend_header\n"
     out.push(b"OFF\n# c\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n4 0 1 2 3 255 0 0\n".to_vec());
     out.push(b"COFF 3 1 0\n0 0 0 1 1 1 1\n1 0 0 1 1 1 1\n0 1 0 1 1 1 1\n3 0 1 2\n".to_vec());
     out.push(include_bytes!("../fixtures/opencv_camera.yml").to_vec());
+    out.push(include_bytes!("../fixtures/fabscan_config.json").to_vec());
+    out.push(include_bytes!("../fixtures/horus_settings.json").to_vec());
     out.push(include_bytes!("../fixtures/opencv_camera_distortion_col.yml").to_vec());
     out.push(
         b"format = 1\nname = \"r\"\n[camera]\nwidth_px = 640\nheight_px = 480\nfx_px = 500.0\nfy_px = 500.0\ncx_px = 320.0\n\
@@ -238,7 +243,9 @@ fn mutated_files_never_panic() {
             || rig::Manifest::from_json(s).is_ok()
             || rig::remesh_inputs::parse_constraints(s).is_ok_and(|c| !c.is_empty())
             || rig::remesh_inputs::parse_face_values(s, 3).is_ok()
-            || rig::scan_folder::parse_progress(s, 8).is_ok_and(|d| !d.is_empty());
+            || rig::scan_folder::parse_progress(s, 8).is_ok_and(|d| !d.is_empty())
+            || rig::scanner_calibration::rig_from_fabscan(&String::from_utf8_lossy(s)).is_ok()
+            || rig::scanner_calibration::rig_from_horus(&String::from_utf8_lossy(s)).is_ok();
         assert!(ok, "seed {i} does not parse");
     }
     let mut tried = 0u64;

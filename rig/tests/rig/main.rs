@@ -6,3 +6,4 @@ mod fuzz_readers;
 mod malformed;
 mod rig_files;
 mod roundtrip;
+mod scanner_files;

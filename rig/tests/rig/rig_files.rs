@@ -53,6 +53,8 @@ fn full_rig() -> Rig {
         }),
         platter_radius_mm: Some(90.0),
         working_height_mm: Some(140.0),
+        image: rig::image::ImageTransform { transpose: true, hflip: true, vflip: false },
+        platform_rotation: None,
     }
 }
 
