@@ -13,7 +13,7 @@ use crate::projector_map::ProjectorMap;
 use crate::register_scan::ViewPose;
 use crate::triangulate::Triangulator;
 use rayon::prelude::*;
-use rig::image::Image8;
+use rig::image::{Image8, ImageTransform};
 use rig::math::Real;
 use rig::ply::WriteOptions;
 use rig::scan_folder::{Manifest, Method};
@@ -149,16 +149,23 @@ fn laser_windows(
     Err(Error::Stage { stage: Stage::Triangulate, source: stages::StageError::Implausible { what, hint } })
 }
 
-/// Reads frames (PNG or JPEG) as grey, what decoding takes.
-fn load_frames(frames: &[(Pattern, PathBuf)]) -> Result<Vec<(Pattern, Image8)>, Error> {
-    let loaded = frames.par_iter().map(|(p, path)| Ok((*p, rig::image::read_image(path)?.to_gray())));
+/// Reads frames (PNG or JPEG) as grey, what decoding takes, turned as the rig's `[image]` says.
+fn load_frames(frames: &[(Pattern, PathBuf)], turn: &ImageTransform) -> Result<Vec<(Pattern, Image8)>, Error> {
+    let loaded = frames.par_iter().map(|(p, path)| Ok((*p, turned(rig::image::read_image(path)?.to_gray(), turn))));
     loaded.collect::<Result<Vec<_>, rig::Error>>().map_err(Error::File)
 }
 
-/// Reads frames (PNG or JPEG) as captured, colour kept: a laser's colour picks its line out.
-fn load_colour_frames(frames: &[(Pattern, PathBuf)]) -> Result<Vec<(Pattern, Image8)>, Error> {
-    let loaded = frames.par_iter().map(|(p, path)| Ok((*p, rig::image::read_image(path)?)));
+/// Reads frames (PNG or JPEG) with their colour, which picks a laser's line out, turned as the rig's
+/// `[image]` says.
+fn load_colour_frames(frames: &[(Pattern, PathBuf)], turn: &ImageTransform) -> Result<Vec<(Pattern, Image8)>, Error> {
+    let loaded = frames.par_iter().map(|(p, path)| Ok((*p, turned(rig::image::read_image(path)?, turn))));
     loaded.collect::<Result<Vec<_>, rig::Error>>().map_err(Error::File)
+}
+
+/// A frame as the rig's camera sees it: other scanners' cameras are mounted on their side, and their
+/// frames are kept as captured (never converted copies), turned here on reading.
+fn turned(frame: Image8, turn: &ImageTransform) -> Image8 {
+    if turn.is_identity() { frame } else { frame.transformed(turn) }
 }
 
 /// The content hash of every frame, by file name.
@@ -260,7 +267,9 @@ pub fn process_scan(
                 // Decode.
                 let t = Instant::now();
                 let fp = with_inputs(
-                    Fingerprint::new(json!({"decode": params.decode, "projector_px": [pw, ph]})),
+                    Fingerprint::new(
+                        json!({"decode": params.decode, "projector_px": [pw, ph], "rig.image": rig.image}),
+                    ),
                     &frame_hashes(&frames, scan)?,
                 );
                 let name = Layout::decode(v);
@@ -271,7 +280,7 @@ pub fn process_scan(
                         (rec.hash, None)
                     }
                     Decision::Run(_) => {
-                        let imgs = load_frames(&frames)?;
+                        let imgs = load_frames(&frames, &rig.image)?;
                         let refs: Vec<(Pattern, &Image8)> = imgs.iter().map(|(p, i)| (*p, i)).collect();
                         let (map, dr) = stages::decode(&refs, (pw, ph), &params.decode)
                             .map_err(|source| Error::View { view: v, stage: Stage::Decode, source })?;
@@ -392,6 +401,7 @@ pub fn process_scan(
                         Fingerprint::new(json!({
                             "laser": params.laser,
                             "rig.camera": rig_part(&rig.camera),
+                            "rig.image": rig.image,
                             "rig.laser": rig_part(laser),
                             "rig.working_volume": rig_part(&rig.working_volume()),
                         })),
@@ -402,7 +412,7 @@ pub fn process_scan(
                     let (hash, line, lr) = match &decision {
                         Decision::Reuse(rec) => (rec.hash, None, recorded::<LaserViewReport>(&rec.report)),
                         Decision::Run(_) => {
-                            let imgs = load_colour_frames(&pair)?;
+                            let imgs = load_colour_frames(&pair, &rig.image)?;
                             let camera = (rig.camera.width, rig.camera.height);
                             if let Some((_, img)) = imgs.iter().find(|(_, i)| (i.width, i.height) != camera) {
                                 let map = (img.width as usize, img.height as usize);

@@ -10,3 +10,4 @@ mod register_fuse;
 mod remesh_fields;
 mod remesh_quads;
 mod surface;
+mod turned_frames;
