@@ -498,18 +498,24 @@ pub enum FrameOrder {
 
 #[derive(clap::Args, Debug)]
 pub struct DecodeArgs {
-    /// Folder of 8-bit images (PNG), taken in name order.
+    /// Folder of 8-bit images (PNG or JPEG, grey or colour), taken in name order.
     pub dir: PathBuf,
-    /// Projector resolution WxH.
+    /// Projector resolution WxH (default: the rig's projector, with --rig).
     #[arg(long, value_parser = parse_size)]
-    pub projector: (u32, u32),
+    pub projector: Option<(u32, u32)>,
+    /// A calibrated rig (camera and projector): the map is triangulated, and `-o cloud.ply` writes the
+    /// points as a range grid (Stanford `range_grid` layout) other tools open as a cloud. Frames are
+    /// turned as its `[image]` says.
+    #[arg(long)]
+    pub rig: Option<PathBuf>,
     /// The order the images were captured in.
     #[arg(long, value_enum, default_value = "opencv")]
     pub order: FrameOrder,
     /// The decoder's thresholds.
     #[command(flatten)]
     pub decode: DecodeOpts,
-    /// Output: a NumPy (H, W, 3) array of projector u, v and confidence; a PNG preview is written beside it.
+    /// Output: `.npy`, a NumPy (H, W, 3) array of projector u, v and confidence (a PNG preview is
+    /// written beside it); `.ply` (with --rig), the triangulated points, millimetres, camera frame.
     #[arg(long, short, default_value = "correspondence.npy")]
     pub out: PathBuf,
     /// Print the report as JSON.

@@ -244,10 +244,41 @@ fn decode_reads_simulated_gray_codes_in_opencv_order_back_to_the_truth_projector
     );
     assert!(lit > 10_000 && coverage >= 0.95 && exactness >= 0.999, "coverage {coverage}, exact {exactness}");
     assert!(d.path("map.png").is_file(), "the preview is written beside the map");
+
+    // With the rig, all the way to geometry: the points against the true surface.
+    let cloud = d.path("cloud.ply");
+    let o = scanrig(&[&"decode", &opencv, &"--rig", &scan.join("rig.toml"), &"-o", &cloud]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let grid = rig::ply::read_range_grid(&cloud).unwrap();
+    let rig = rig::Rig::read(&scan.join("rig.toml")).unwrap();
+    let pose = rig.turntable.unwrap().object_from_camera(m.views[0].angle_deg);
+    let truth = rig::read_mesh(&scan.join("truth/object.ply")).unwrap().triangulate();
+    let diag = truth.bounding_box().unwrap().diagonal();
+    let index = process::mesh_distance::MeshDistance::new(&truth, 2.0);
+    let mut dist: Vec<f64> = (0..grid.valid.len())
+        .filter(|&i| grid.valid[i])
+        .map(|i| index.distance_up_to(&(pose * grid.points[i]), 0.05 * diag))
+        .collect();
+    dist.sort_by(f64::total_cmp);
+    let median = dist[dist.len() / 2];
+    eprintln!(
+        "decode --rig: {} points, median {:.5} % of the diagonal from the truth",
+        dist.len(),
+        100.0 * median / diag
+    );
+    // Gray codes alone give whole projector pixels: the depth is quantised to them (0.093 % of the
+    // diagonal here, noiseless). Issue 21 asks 0.02 %, which needs sub-pixel stripe edges: not yet.
+    assert!(dist.len() > 10_000 && median <= 1.2e-3 * diag, "median {median} mm of {diag}");
+    // A PLY without a rig, or a projector size the rig contradicts, is refused by name.
+    let o = scanrig(&[&"decode", &opencv, &"--projector", &"1024x768", &"-o", &d.path("x.ply")]);
+    assert!(stderr(&o).contains("--rig"), "{}", stderr(&o));
+    let o = scanrig(&[&"decode", &opencv, &"--projector", &"800x600", &"--rig", &scan.join("rig.toml"), &"-o", &cloud]);
+    assert!(stderr(&o).contains("--projector 800x600 but the rig's projector is 1024x768"), "{}", stderr(&o));
+
     // A folder with the wrong number of images says what it expected.
     std::fs::remove_file(opencv.join("pattern_00.png")).unwrap();
     let o = scanrig(&[&"decode", &opencv, &"--projector", &"1024x768", &"--out", &out]);
-    assert!(stderr(&o).contains("41 PNG images, but a 1024x768 projector in OpenCV order needs 42"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("41 images, but a 1024x768 projector in OpenCV order needs 42"), "{}", stderr(&o));
 }
 
 #[test]
