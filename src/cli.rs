@@ -113,11 +113,16 @@ pub enum ImportCommand {
         out: PathBuf,
     },
     /// FabScanPi's config.json (camera, image rotate/flip, laser planes and colour, platform pose,
-    /// turntable radius and height as the working volume) into a rig file.
+    /// turntable radius and height as the working volume) into a rig file; or a FabScanPi scan folder
+    /// (its raw_laser_raw frames, kept with keep_raw_images) and its config into a scan folder whose
+    /// frames are those files, unaltered, each at its turntable angle.
     Fabscan {
-        /// The config.json (or the folder holding it).
-        config: PathBuf,
-        /// The rig file to write.
+        /// A config.json (writes a rig), or a scan folder `<id>/` (writes a scan folder).
+        input: PathBuf,
+        /// The scanner's config.json, for a scan folder (default: config.json in it or beside it).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// The rig file or scan folder to write (a scan folder must not exist yet).
         #[arg(long, short)]
         out: PathBuf,
     },
@@ -373,6 +378,17 @@ pub struct SimArgs {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Also write the scan in another scanner's layout: `fabscan` (a laser scan as FabScanPi keeps it,
+    /// OUT/fabscan/config.json and OUT/fabscan/sim/raw_laser_raw/sim_NNN.png, frames as its
+    /// side-mounted camera captures them), for trying importers.
+    #[arg(long, value_enum)]
+    pub layout: Option<SimLayout>,
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SimLayout {
+    /// FabScanPi's scan folder and config.json.
+    Fabscan,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

@@ -48,6 +48,11 @@ pub fn run(args: &SimArgs) -> Result<()> {
         None if cfg.rig.projector.is_some() => Method::StructuredLight,
         None => Method::Laser,
     };
+    if args.layout.is_some() && (args.board.is_some() || method != Method::Laser) {
+        bail!(
+            "--layout fabscan writes laser scans (FabScanPi is a laser scanner): use --config laser or --method laser"
+        );
+    }
     if let Some((cols, rows)) = args.board {
         return run_board(args, &cfg, sim::Board { cols, rows, square_mm: args.square });
     }
@@ -70,7 +75,21 @@ pub fn run(args: &SimArgs) -> Result<()> {
         progress.update("simulate", done, total)
     })
     .with_context(|| format!("simulating into {}", args.out.display()))?;
-    print_report(args, &report)
+    print_report(args, &report)?;
+    if args.layout == Some(crate::cli::SimLayout::Fabscan) {
+        // FabScanPi's own turn: its camera is mounted on its side (rotate and hflip true).
+        let turn = rig::image::ImageTransform { transpose: true, hflip: true, vflip: false };
+        let dir = args.out.join("fabscan");
+        rig::fabscan_scan::write_layout(&args.out, &dir, "sim", turn)
+            .with_context(|| format!("writing {} in FabScanPi's layout", dir.display()))?;
+        eprintln!(
+            "FabScanPi layout: {} and {} (import with `scanrig import fabscan {} -o SCAN`)",
+            dir.join("config.json").display(),
+            dir.join("sim").display(),
+            dir.join("sim").display()
+        );
+    }
+    Ok(())
 }
 
 fn run_board(args: &SimArgs, cfg: &SimConfig, board: sim::Board) -> Result<()> {

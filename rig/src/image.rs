@@ -101,6 +101,15 @@ impl Image8 {
         out
     }
 
+    /// The frame a camera mounted as `t` says captured, given the turned one: `t` undone, in reverse order.
+    pub fn untransformed(&self, t: &ImageTransform) -> Image8 {
+        let mut out = if t.vflip { self.flipped() } else { self.clone() };
+        if t.hflip {
+            out = out.mirrored();
+        }
+        if t.transpose { out.transposed() } else { out }
+    }
+
     /// Grey by Rec. 601 luma (what OpenCV's `cvtColor(…, COLOR_RGB2GRAY)` computes).
     pub fn to_gray(&self) -> Image8 {
         if self.channels == 1 {

@@ -87,6 +87,7 @@ pub mod remesh_inputs;
 pub mod patterns;
 pub use patterns::{Axis, Pattern, PhaseShift};
 
+pub mod fabscan_scan;
 pub mod scan_folder;
 pub mod scanner_calibration;
 pub use scan_folder::{Manifest, Method};

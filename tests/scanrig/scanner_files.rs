@@ -69,3 +69,77 @@ fn fabscan_and_horus_files_go_through_rig_files_and_back() {
     assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("[turntable]"));
     assert!(!p("x.json").exists());
 }
+
+/// The simulator writes a laser scan as FabScanPi keeps one (frames on their side, mirrored, numbered
+/// by position and laser, no laser-off frame) and its config.json; importing it gives a scan folder
+/// whose merged cloud is the native one's byte for byte (FabScanPi's +angle being scanrig's −angle:
+/// the other sign would mirror the object). Broken scan folders are refused with nothing left behind.
+#[test]
+fn a_fabscan_scan_folder_imports_to_the_native_scans_points() {
+    let d = tempfile::tempdir().unwrap();
+    let p = |n: &str| d.path().join(n);
+    let native = p("native");
+    ok(&scanrig(&[
+        &"sim",
+        &"--config",
+        &"laser",
+        &"--views",
+        &"6",
+        &"--resolution",
+        &"320x240",
+        &"--no-truth",
+        &"--layout",
+        &"fabscan",
+        &"--out",
+        &native,
+    ]));
+    let fab = native.join("fabscan/sim");
+    let out = ok(&scanrig(&[&"import", &"fabscan", &fab, &"-o", &p("imported")]));
+    assert!(out.contains("6 positions × 2 laser(s)"), "{out}");
+    // FabScanPi records no laser-off frame: the native scan is processed without its own.
+    let mut m = rig::Manifest::read(&native).unwrap();
+    m.views.iter_mut().for_each(|v| v.frames.retain(|f| f.pattern != rig::Pattern::LaserOff));
+    m.write(&native).unwrap();
+    for scan in [&native, &p("imported")] {
+        ok(&scanrig(&[&"process", scan, &"--until", &"merge"]));
+    }
+    let (a, b) = (
+        std::fs::read(native.join("processed/merged.ply")).unwrap(),
+        std::fs::read(p("imported/processed/merged.ply")).unwrap(),
+    );
+    assert!(a.len() > 10_000);
+    assert!(a == b, "the imported scan's merged cloud differs from the native one");
+    // The frames are FabScanPi's files, unaltered.
+    let imported = rig::Manifest::read(&p("imported")).unwrap();
+    let first = &imported.views[0].frames[0].file;
+    let name = std::path::Path::new(first).file_name().unwrap();
+    assert_eq!(
+        std::fs::read(p("imported").join(first)).unwrap(),
+        std::fs::read(fab.join("raw_laser_raw").join(name)).unwrap()
+    );
+
+    // An existing output, a missing frame, a config of another camera: refused, nothing written.
+    let o = scanrig(&[&"import", &"fabscan", &fab, &"-o", &p("imported")]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("exists"), "{}", String::from_utf8_lossy(&o.stderr));
+    let broken = p("broken/sim");
+    std::fs::create_dir_all(broken.join("raw_laser_raw")).unwrap();
+    for e in std::fs::read_dir(fab.join("raw_laser_raw")).unwrap() {
+        let e = e.unwrap();
+        if e.file_name() != "sim_005.png" {
+            std::fs::copy(e.path(), broken.join("raw_laser_raw").join(e.file_name())).unwrap();
+        }
+    }
+    let config = native.join("fabscan/config.json");
+    let o = scanrig(&[&"import", &"fabscan", &broken, &"--config", &config, &"-o", &p("x")]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("frame 005 is missing"), "{err}");
+    let mut other: Value = serde_json::from_str(&std::fs::read_to_string(&config).unwrap()).unwrap();
+    other["camera"]["resolution"] = serde_json::json!({"width": 640, "height": 480});
+    other["calibration"]["camera_matrix"][0][2] = Value::from(240.0);
+    other["calibration"]["camera_matrix"][1][2] = Value::from(320.0);
+    std::fs::write(p("other.json"), other.to_string()).unwrap();
+    let o = scanrig(&[&"import", &"fabscan", &fab, &"--config", &p("other.json"), &"-o", &p("x")]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("camera.resolution"), "{err}");
+    assert!(!p("x").exists() && !p("x.partial").exists(), "a refused import left files");
+}

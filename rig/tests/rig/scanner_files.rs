@@ -288,3 +288,27 @@ fn malformed_scanner_files_are_refused_naming_the_field() {
     }
     assert!(fab.len() + horus.len() >= 15);
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+    /// Any set of file names in a FabScanPi frame folder is either a whole, gap-free scan or refused,
+    /// never a panic; an accepted one lists every frame once.
+    #[test]
+    fn fabscan_frame_folders_are_whole_or_refused(
+        names in proptest::collection::vec("(s|t)_[0-9]{1,4}\\.(jpg|png|txt)|x", 0..12), lasers in 1usize..3,
+    ) {
+        let d = tempfile::tempdir().unwrap();
+        let dir = d.path().join("raw_laser_raw");
+        std::fs::create_dir_all(&dir).unwrap();
+        for n in &names {
+            std::fs::write(dir.join(n), b"").unwrap();
+        }
+        if let Ok(f) = rig::fabscan_scan::find_frames(d.path(), lasers) {
+            let all: Vec<&String> = f.files.iter().flatten().collect();
+            proptest::prop_assert!(f.files.iter().all(|p| p.len() == lasers));
+            let mut unique = all.clone();
+            unique.dedup();
+            proptest::prop_assert_eq!(unique.len(), all.len());
+        }
+    }
+}
