@@ -37,8 +37,24 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         corner_height_mm: args.corner_height,
         projector_size: args.projector,
     };
+    let mut params = params;
+    if params.projector_size.is_none()
+        && let Some(size) = calib::workflow::captures::pose_layout_projector(&source)
+    {
+        let base_has_projector =
+            args.rig.as_deref().and_then(|p| Rig::read(p).ok()).is_some_and(|r| r.projector.is_some());
+        if !base_has_projector {
+            eprintln!(
+                "note: pose folders of Gray codes without --projector: taken as a {}x{} projector from their image count \
+                 (the decoded coordinates do not depend on it; set the rig's projector width_px and height_px to the \
+                 real one)",
+                size.0, size.1
+            );
+            params.projector_size = Some(size);
+        }
+    }
     let mut progress = Progress::new();
-    let positions = calib::workflow::load(&source, params.orientation, |done, total| {
+    let positions = calib::workflow::load(&source, params.orientation, params.projector_size, |done, total| {
         progress.update("reading images", done, total)
     })?;
     let base = [args.rig.clone().unwrap_or_default(), args.out.clone(), source.join("rig.toml")]

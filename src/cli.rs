@@ -378,9 +378,10 @@ pub struct SimArgs {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
-    /// Also write the scan in another scanner's layout: `fabscan` (a laser scan as FabScanPi keeps it,
-    /// OUT/fabscan/config.json and OUT/fabscan/sim/raw_laser_raw/sim_NNN.png, frames as its
-    /// side-mounted camera captures them), for trying importers.
+    /// Also write the scan in another tool's layout, for trying importers: `fabscan` (a laser scan as
+    /// FabScanPi keeps it, OUT/fabscan/config.json and OUT/fabscan/sim/raw_laser_raw/sim_NNN.png,
+    /// frames as its side-mounted camera captures them); `opencv` (a structured-light --board capture
+    /// as pose folders OUT/opencv/pose_NN/graycode_MM.png in OpenCV's Gray-code order).
     #[arg(long, value_enum)]
     pub layout: Option<SimLayout>,
 }
@@ -389,6 +390,8 @@ pub struct SimArgs {
 pub enum SimLayout {
     /// FabScanPi's scan folder and config.json.
     Fabscan,
+    /// One folder per board pose of Gray codes in OpenCV order.
+    Opencv,
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]

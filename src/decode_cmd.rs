@@ -2,24 +2,7 @@
 
 use crate::cli::{DecodeArgs, FrameOrder};
 use anyhow::{Context, Result, bail};
-use rig::patterns::bits_for;
-use rig::{Axis, Pattern};
-
-/// The patterns of OpenCV's `GrayCodePattern` capture order for a projector of `w × h`.
-pub fn opencv_order(w: u32, h: u32) -> Vec<Pattern> {
-    let mut seq = Vec::new();
-    for (axis, size) in [(Axis::Columns, w), (Axis::Rows, h)] {
-        let bits = bits_for(size);
-        for bit in 0..bits {
-            for inverse in [false, true] {
-                seq.push(Pattern::Gray { axis, bit, bits, inverse });
-            }
-        }
-    }
-    seq.push(Pattern::White);
-    seq.push(Pattern::Black);
-    seq
-}
+use rig::Pattern;
 
 pub fn run(args: &DecodeArgs) -> Result<()> {
     crate::outputs::distinct(&[("--out", Some(&args.out))])?;
@@ -51,7 +34,7 @@ pub fn run(args: &DecodeArgs) -> Result<()> {
         );
     }
     let order = match args.order {
-        FrameOrder::Opencv => opencv_order(pw, ph),
+        FrameOrder::Opencv => rig::gray_code_folders::opencv_order(pw, ph),
     };
     let image_ext = |p: &std::path::Path| {
         p.extension()

@@ -1,6 +1,6 @@
 //! `scanrig sim`: a simulated scan into a scan folder.
 
-use crate::cli::{SimArgs, SimMethod, SimWorld, Up};
+use crate::cli::{SimArgs, SimLayout, SimMethod, SimWorld, Up};
 use anyhow::{Context, Result, bail};
 use rig::Method;
 use sim::{Albedo, Scene, SimConfig, UpAxis};
@@ -48,10 +48,18 @@ pub fn run(args: &SimArgs) -> Result<()> {
         None if cfg.rig.projector.is_some() => Method::StructuredLight,
         None => Method::Laser,
     };
-    if args.layout.is_some() && (args.board.is_some() || method != Method::Laser) {
-        bail!(
-            "--layout fabscan writes laser scans (FabScanPi is a laser scanner): use --config laser or --method laser"
-        );
+    match args.layout {
+        Some(SimLayout::Fabscan) if args.board.is_some() || method != Method::Laser => {
+            bail!(
+                "--layout fabscan writes laser scans (FabScanPi is a laser scanner): use --config laser or --method laser"
+            )
+        }
+        Some(SimLayout::Opencv) if args.board.is_none() || cfg.rig.projector.is_none() => {
+            bail!(
+                "--layout opencv writes board captures of a projector's Gray codes: use --board with a structured-light rig"
+            )
+        }
+        _ => {}
     }
     if let Some((cols, rows)) = args.board {
         return run_board(args, &cfg, sim::Board { cols, rows, square_mm: args.square });
@@ -76,7 +84,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
     })
     .with_context(|| format!("simulating into {}", args.out.display()))?;
     print_report(args, &report)?;
-    if args.layout == Some(crate::cli::SimLayout::Fabscan) {
+    if args.layout == Some(SimLayout::Fabscan) {
         // FabScanPi's own turn: its camera is mounted on its side (rotate and hflip true).
         let turn = rig::image::ImageTransform { transpose: true, hflip: true, vflip: false };
         let dir = args.out.join("fabscan");
@@ -123,7 +131,18 @@ fn run_board(args: &SimArgs, cfg: &SimConfig, board: sim::Board) -> Result<()> {
         progress.update("simulate", done, total)
     })
     .with_context(|| format!("simulating into {}", args.out.display()))?;
-    print_report(args, &report)
+    print_report(args, &report)?;
+    if let (Some(SimLayout::Opencv), Some(p)) = (args.layout, cfg.rig.projector.as_ref()) {
+        let dir = args.out.join("opencv");
+        let poses = rig::gray_code_folders::write_pose_folders(&args.out, &dir, p.lens.width, p.lens.height)
+            .with_context(|| format!("writing {} in OpenCV's pose layout", dir.display()))?;
+        eprintln!(
+            "OpenCV layout: {poses} pose folders in {} (calibrate with `scanrig calibrate all {}`)",
+            dir.display(),
+            dir.display()
+        );
+    }
+    Ok(())
 }
 
 fn print_report(args: &SimArgs, report: &sim::ScanReport) -> Result<()> {

@@ -88,6 +88,7 @@ pub mod patterns;
 pub use patterns::{Axis, Pattern, PhaseShift};
 
 pub mod fabscan_scan;
+pub mod gray_code_folders;
 pub mod scan_folder;
 pub mod scanner_calibration;
 pub use scan_folder::{Manifest, Method};

@@ -143,3 +143,61 @@ fn a_fabscan_scan_folder_imports_to_the_native_scans_points() {
     assert!(!o.status.success() && err.contains("camera.resolution"), "{err}");
     assert!(!p("x").exists() && !p("x.partial").exists(), "a refused import left files");
 }
+
+/// Projector–camera calibration captures in the usual layout — a folder per board pose, Gray codes in
+/// OpenCV order, white and black last — calibrate exactly as the same frames do through scanrig's own
+/// capture folder; a pattern of pose folders works too, and a pose folder short of an image is
+/// refused saying what it needs.
+#[test]
+fn opencv_pose_folders_calibrate_as_the_native_captures_do() {
+    let d = tempfile::tempdir().unwrap();
+    let p = |n: &str| d.path().join(n);
+    let caps = p("caps");
+    ok(&scanrig(&[
+        &"sim",
+        &"--board",
+        &"9x6",
+        &"--square",
+        &"11",
+        &"--resolution",
+        &"640x512",
+        &"--poses",
+        &"5",
+        &"--no-truth",
+        &"--layout",
+        &"opencv",
+        &"--out",
+        &caps,
+    ]));
+    // The native captures with the same frames: no phase shift (the pose layout has none).
+    let mut m = rig::Manifest::read(&caps).unwrap();
+    m.views.iter_mut().for_each(|v| v.frames.retain(|f| !matches!(f.pattern, rig::Pattern::Phase { .. })));
+    m.write(&caps).unwrap();
+    let args = |src: &dyn AsRef<std::ffi::OsStr>, out: &std::path::Path| {
+        scanrig(&[&"calibrate", &"all", src, &"-o", &out, &"--square", &"11", &"--projector", &"1024x768"])
+    };
+    ok(&args(&caps, &p("native.toml")));
+    ok(&args(&caps.join("opencv"), &p("poses.toml")));
+    ok(&args(&caps.join("opencv/pose_*"), &p("glob.toml")));
+    let native = rig::Rig::read(&p("native.toml")).unwrap();
+    for other in ["poses.toml", "glob.toml"] {
+        let r = rig::Rig::read(&p(other)).unwrap();
+        assert_eq!(r.camera, native.camera, "{other}");
+        let (a, b) = (r.projector.unwrap(), native.projector.clone().unwrap());
+        assert_eq!((a.lens, a.from_camera), (b.lens, b.from_camera), "{other}");
+    }
+    // Without --projector the size comes from the image count, with a note.
+    let o = scanrig(&[&"calibrate", &"all", &caps.join("opencv"), &"-o", &p("inferred.toml"), &"--square", &"11"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.contains("taken as a 1024x1024 projector"), "{err}");
+    let inferred = rig::Rig::read(&p("inferred.toml")).unwrap().projector.unwrap();
+    assert_eq!(inferred.from_camera, native.projector.as_ref().unwrap().from_camera, "the size does not move the pose");
+    std::fs::remove_file(caps.join("opencv/pose_02/graycode_17.png")).unwrap();
+    let o = args(&caps.join("opencv"), &p("short.toml"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("pose_02") && err.contains("41 images") && err.contains("needs 42"),
+        "{err}"
+    );
+    assert!(!p("short.toml").exists());
+}

@@ -50,13 +50,67 @@ pub struct Position {
     pub structured: Vec<(Pattern, PathBuf)>,
 }
 
-/// The positions of a capture folder or an image folder; `progress(done, total)` while images are
-/// read.
-pub fn load(source: &Path, turn: Orientation, progress: impl FnMut(usize, usize)) -> Result<Vec<Position>, E> {
+/// The positions of a capture folder, a folder of pose folders (or a `*` pattern naming them: each
+/// one board pose's Gray-code program in OpenCV order, [`rig::gray_code_folders`], for a `projector`
+/// of that size, else of the size its image count suggests) or an image folder; `progress(done,
+/// total)` while images are read.
+pub fn load(
+    source: &Path,
+    turn: Orientation,
+    projector: Option<(u32, u32)>,
+    progress: impl FnMut(usize, usize),
+) -> Result<Vec<Position>, E> {
     if source.join("scan.json").is_file() {
         return from_manifest(source);
     }
+    let poses = pose_dirs(source);
+    if !poses.is_empty() {
+        return from_pose_folders(&poses, projector);
+    }
     from_images(&image_files(source)?, turn, progress)
+}
+
+/// The pose folders a source names: the image-holding subfolders of a folder that holds no images
+/// itself, or the folders a `*` pattern matches.
+pub fn pose_dirs(source: &Path) -> Vec<PathBuf> {
+    let name = source.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    if name.contains('*') {
+        let parent = source.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        return rig::gray_code_folders::pose_folders(parent)
+            .into_iter()
+            .filter(|d| d.file_name().is_some_and(|n| wildcard(&name, &n.to_string_lossy())))
+            .collect();
+    }
+    if rig::gray_code_folders::pose_images(source).is_ok_and(|f| f.is_empty()) {
+        return rig::gray_code_folders::pose_folders(source);
+    }
+    Vec::new()
+}
+
+/// The projector size the pose folders of `source` suggest by their image count (see
+/// [`rig::gray_code_folders::infer_projector_size`]); `None` where `source` is not such a layout.
+pub fn pose_layout_projector(source: &Path) -> Option<(u32, u32)> {
+    let first = pose_dirs(source).into_iter().next()?;
+    rig::gray_code_folders::infer_projector_size(rig::gray_code_folders::pose_images(&first).ok()?.len())
+}
+
+/// One position per pose folder: its white frame lit, its whole program structured.
+fn from_pose_folders(dirs: &[PathBuf], projector: Option<(u32, u32)>) -> Result<Vec<Position>, E> {
+    let count = rig::gray_code_folders::pose_images(&dirs[0])?.len();
+    let (w, h) = projector
+        .or_else(|| rig::gray_code_folders::infer_projector_size(count))
+        .ok_or_else(|| E::NoImages { path: dirs[0].clone() })?;
+    dirs.iter()
+        .map(|d| {
+            let frames = rig::gray_code_folders::pose_frames(d, w, h)?;
+            let lit = frames
+                .iter()
+                .find(|(p, _)| *p == Pattern::White)
+                .map(|(_, f)| f.clone())
+                .expect("OpenCV order ends in white, black");
+            Ok(Position { lit, angle_deg: None, lasers: Vec::new(), laser_off: None, structured: frames })
+        })
+        .collect()
 }
 
 fn from_manifest(dir: &Path) -> Result<Vec<Position>, E> {
