@@ -183,7 +183,7 @@ fn opencv_pose_folders_calibrate_as_the_native_captures_do() {
     for other in ["poses.toml", "glob.toml"] {
         let r = rig::Rig::read(&p(other)).unwrap();
         assert_eq!(r.camera, native.camera, "{other}");
-        let (a, b) = (r.projector.unwrap(), native.projector.clone().unwrap());
+        let (a, b) = (r.projector.unwrap(), native.projector.unwrap());
         assert_eq!((a.lens, a.from_camera), (b.lens, b.from_camera), "{other}");
     }
     // Without --projector the size comes from the image count, with a note.
