@@ -13,6 +13,20 @@ use serde_json::{Value, json};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
+/// How the captures are turned: --transpose and --flip where given, else the base rig's `[image]`
+/// (a rig imported from Horus or FabScanPi says how its camera is mounted).
+fn orientation(args: &CalibrateArgs) -> Result<Orientation> {
+    if args.transpose || args.flip {
+        return Ok(Orientation(rig::image::ImageTransform {
+            transpose: args.transpose,
+            hflip: args.flip,
+            vflip: false,
+        }));
+    }
+    let base = args.rig.as_deref().filter(|p| p.is_file()).map(Rig::read).transpose()?;
+    Ok(Orientation(base.map(|r| r.image).unwrap_or_default()))
+}
+
 pub fn run(args: &CalibrateArgs) -> Result<()> {
     let source = args.captures.clone().or_else(|| args.images.clone()).expect("clap requires one of them");
     if args.target == CalibrateTarget::Import {
@@ -27,7 +41,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
             CalibrateTarget::All | CalibrateTarget::Import => Target::All,
         },
         board: BoardSpec { cols: args.board.0 as usize, rows: args.board.1 as usize, square_mm: args.square },
-        orientation: Orientation { transpose: args.transpose, flip: args.flip },
+        orientation: orientation(args)?,
         lens: CameraOptions {
             fix_aspect_ratio: args.fix_aspect_ratio,
             fix_principal_point: args.fix_principal_point,

@@ -152,7 +152,7 @@ impl Numbers {
             let name = match (self.planes.len(), k) {
                 (2, 0) => "left".to_string(),
                 (2, 1) => "right".to_string(),
-                _ => format!("laser{k}"),
+                _ => format!("laser {k}"),
             };
             lasers.push(Laser { name, plane, colour: self.colour });
         }

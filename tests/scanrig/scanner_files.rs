@@ -201,3 +201,44 @@ fn opencv_pose_folders_calibrate_as_the_native_captures_do() {
     );
     assert!(!p("short.toml").exists());
 }
+
+/// The real FabScanPi sweep calibrates its laser planes through the import path: the rig imported
+/// from its config.json says how its camera is mounted, so `calibrate` needs no --transpose or
+/// --flip, and the rig it writes keeps the mounting for processing.
+#[test]
+fn the_fabscanpi_sweep_calibrates_through_the_imported_rig() {
+    let Some(config) = fixtures::data_file("fabscanpi-calibration/dummy.config.json") else { return };
+    let sweep = config.with_file_name("calibration_8x10");
+    let d = tempfile::tempdir().unwrap();
+    let p = |n: &str| d.path().join(n);
+    ok(&scanrig(&[&"import", &"fabscan", &config, &"-o", &p("rig.toml")]));
+    // The frames with laser lines (lit, laser 0, laser 1 from 067 to 115).
+    std::fs::create_dir_all(p("sweep")).unwrap();
+    for f in 67..=115 {
+        let name = format!("calibration_{f:03}.jpg");
+        std::fs::copy(sweep.join(&name), p("sweep").join(&name)).unwrap();
+    }
+    ok(&scanrig(&[
+        &"calibrate",
+        &"laser",
+        &p("sweep"),
+        &"--rig",
+        &p("rig.toml"),
+        &"-o",
+        &p("lasers.toml"),
+        &"--board",
+        &"10x8",
+        &"--square",
+        &"7",
+    ]));
+    let (imported, calibrated) = (rig::Rig::read(&p("rig.toml")).unwrap(), rig::Rig::read(&p("lasers.toml")).unwrap());
+    assert_eq!(calibrated.image, imported.image, "the mounting is kept");
+    let (a, b) = (imported.lasers[0].plane, calibrated.lasers[0].plane);
+    let angle = a.normal.angle(&b.normal).to_degrees();
+    eprintln!(
+        "FabScanPi laser 0 through the import path: {angle:.2}° and {:.2} mm from its config",
+        (a.distance - b.distance).abs()
+    );
+    assert!(angle < 2.0 && (a.distance - b.distance).abs() < 2.0, "{angle}° / {} mm", a.distance - b.distance);
+    assert_eq!(calibrated.lasers.len(), 2, "both lasers' planes from the sweep");
+}

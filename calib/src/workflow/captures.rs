@@ -12,26 +12,15 @@ use rig::math::Real;
 use rig::{Manifest, Pattern};
 use std::path::{Path, PathBuf};
 
-/// How images are turned before use (a camera mounted on its side).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Orientation {
-    /// Transpose first.
-    pub transpose: bool,
-    /// Then mirror left to right.
-    pub flip: bool,
-}
+/// How images are turned before use (a camera mounted on its side): the rig's `[image]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Orientation(pub rig::image::ImageTransform);
 
 impl Orientation {
     /// Reads a PNG or JPEG as grey, turned.
     pub fn read(&self, path: &Path) -> Result<Image8, E> {
-        let mut img = rig::image::read_image(path)?.to_gray();
-        if self.transpose {
-            img = img.transposed();
-        }
-        if self.flip {
-            img = img.mirrored();
-        }
-        Ok(img)
+        let img = rig::image::read_image(path)?.to_gray();
+        Ok(if self.0.is_identity() { img } else { img.transformed(&self.0) })
     }
 }
 

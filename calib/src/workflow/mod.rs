@@ -286,6 +286,8 @@ pub fn calibrate_rig(
     };
     let mut rig = base.cloned().unwrap_or_else(|| camera_only("calibrated rig", camera));
     rig.camera = camera;
+    // The camera was calibrated on the turned frames: processing must turn them the same way.
+    rig.image = params.orientation.0;
 
     let on_turntable = found.iter().filter(|f| f.position.angle_deg.is_some()).count();
     let captured_on_turntable = positions.iter().filter(|p| p.angle_deg.is_some()).count();
