@@ -6,8 +6,12 @@ use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 
 /// scanrig: drive, calibrate and simulate 3D scanners; turn their captures into point clouds and meshes.
+///
+/// Conventions: millimetres and degrees; camera frame x right, y down, z forward. A turntable angle
+/// is counter-clockwise seen from above (the platter turns that way as the angle grows); importers
+/// convert other scanners' angles to it (FabScanPi's position k of N is -k*360/N).
 #[derive(Parser, Debug)]
-#[command(name = "scanrig", version, about, long_about = None)]
+#[command(name = "scanrig", version, about)]
 pub struct Args {
     /// No progress on stderr (errors and warnings still go there).
     #[arg(long, short, global = true)]

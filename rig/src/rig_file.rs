@@ -227,8 +227,8 @@ fn unit(v: [f64; 3], field: &str) -> Result<UnitVector3, ParseError> {
     if !(n > 0.0 && n.is_finite()) {
         return Err(invalid(field, "must be a non-zero, finite direction"));
     }
-    // Unit length as written is kept bit for bit, so a rig reads back exactly as it was written.
-    Ok(if (n - 1.0).abs() < 1e-9 { UnitVector3::new_unchecked(v) } else { UnitVector3::new_normalize(v) })
+    // Normalised always: rotations are built from it, and they must be exact rotations.
+    Ok(UnitVector3::new_normalize(v))
 }
 
 fn finite(v: &[f64], field: &str) -> Result<(), ParseError> {

@@ -162,14 +162,8 @@ impl Numbers {
         }
         let axis = TurntableAxis {
             point: Point3::from(self.platform_translation),
-            direction: {
-                let z = r.column(2).into_owned();
-                if (z.norm() - 1.0).abs() < 1e-9 {
-                    UnitVector3::new_unchecked(z)
-                } else {
-                    UnitVector3::new_normalize(z)
-                }
-            },
+            // Normalised: rotations are built from it (the file's numbers stay in platform_rotation).
+            direction: UnitVector3::new_normalize(r.column(2).into_owned()),
         };
         Ok(Rig {
             name: name.into(),
