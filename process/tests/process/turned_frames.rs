@@ -49,25 +49,30 @@ fn native_and_captured(
     (native, captured)
 }
 
+/// Both scans processed up to the merge: their merged clouds.
+fn merged_both(native: &std::path::Path, captured: &std::path::Path) -> (rig::PointCloud, rig::PointCloud) {
+    let params = ProcessParams { until: process::Stage::Merge, ..Default::default() };
+    let merged = |scan: &std::path::Path| {
+        process_scan(scan, &scan.join("processed"), &params, |_, _, _| {}).unwrap();
+        rig::ply::read_cloud(&scan.join("processed/merged.ply")).unwrap()
+    };
+    (merged(native), merged(captured))
+}
+
 #[test]
 fn laser_frames_stored_as_captured_give_the_same_points() {
     let mut cfg = SimConfig::builtin("laser").unwrap().with_camera_resolution(320, 240);
     cfg.scan.views = 4;
     let turn = ImageTransform { transpose: true, hflip: true, vflip: false };
     let (native, captured) = native_and_captured(&cfg, Method::Laser, "turned-laser", turn);
-    let params = ProcessParams { until: process::Stage::Merge, ..Default::default() };
-    process_scan(&native, &native.join("processed"), &params, |_, _, _| {}).unwrap();
-    process_scan(&captured, &captured.join("processed"), &params, |_, _, _| {}).unwrap();
-    let (a, b) = (
-        rig::ply::read_cloud(&native.join("processed/merged.ply")).unwrap(),
-        rig::ply::read_cloud(&captured.join("processed/merged.ply")).unwrap(),
-    );
+    let (a, b) = merged_both(&native, &captured);
     assert!(a.len() > 500, "{} points", a.len());
     assert_eq!(a.positions, b.positions, "point for point");
     // Without the rig's [image], the captured frames do not fit the camera: refused, not misread.
     let mut rig = rig::Rig::read(&captured.join("rig.toml")).unwrap();
     rig.image = ImageTransform::default();
     rig.write(&captured.join("rig.toml")).unwrap();
+    let params = ProcessParams { until: process::Stage::Merge, ..Default::default() };
     let err = process_scan(&captured, &captured.join("processed2"), &params, |_, _, _| {}).unwrap_err().to_string();
     assert!(err.contains("240×320") || err.contains("width_px"), "{err}");
 }
@@ -78,13 +83,7 @@ fn structured_light_frames_stored_as_captured_give_the_same_points() {
     cfg.scan.views = 2;
     let turn = ImageTransform { transpose: false, hflip: true, vflip: true };
     let (native, captured) = native_and_captured(&cfg, Method::StructuredLight, "turned-sl", turn);
-    let params = ProcessParams { until: process::Stage::Merge, ..Default::default() };
-    process_scan(&native, &native.join("processed"), &params, |_, _, _| {}).unwrap();
-    process_scan(&captured, &captured.join("processed"), &params, |_, _, _| {}).unwrap();
-    let (a, b) = (
-        rig::ply::read_cloud(&native.join("processed/merged.ply")).unwrap(),
-        rig::ply::read_cloud(&captured.join("processed/merged.ply")).unwrap(),
-    );
+    let (a, b) = merged_both(&native, &captured);
     assert!(a.len() > 5000, "{} points", a.len());
     assert_eq!(a.positions, b.positions, "point for point");
 }
