@@ -3,6 +3,7 @@
 use crate::cli::{DecodeArgs, FrameOrder};
 use anyhow::{Context, Result, bail};
 use rig::Pattern;
+use std::path::Path;
 
 pub fn run(args: &DecodeArgs) -> Result<()> {
     crate::outputs::distinct(&[("--out", Some(&args.out))])?;
@@ -78,7 +79,11 @@ pub fn run(args: &DecodeArgs) -> Result<()> {
             process::ProcessParams::default().normal_max_jump_mm,
         )
         .with_context(|| {
-            format!("triangulating {} with {}", args.dir.display(), args.rig.as_ref().unwrap().display())
+            format!(
+                "triangulating {} with {}",
+                args.dir.display(),
+                args.rig.as_deref().unwrap_or(Path::new("the rig")).display()
+            )
         })?;
         rig::ply::write_range_grid(&args.out, &grid, &rig::ply::WriteOptions::default().with_units("mm"))?;
         if args.json {

@@ -268,21 +268,12 @@ pub fn rig_from_fabscan(text: &str) -> Result<Rig, ParseError> {
             hflip: flag(get(&v, "camera.hflip")?, "camera.hflip")?,
             vflip: flag(get(&v, "camera.vflip")?, "camera.vflip")?,
         },
-        camera_matrix: matrix(
-            get(cal, "camera_matrix").map_err(|_| err("calibration.camera_matrix", "is missing"))?,
-            "calibration.camera_matrix",
-        )?,
-        distortion: numbers::<5>(
-            get(cal, "distortion_vector").map_err(|_| err("calibration.distortion_vector", "is missing"))?,
-            "calibration.distortion_vector",
-        )?,
+        camera_matrix: matrix(get(&v, "calibration.camera_matrix")?, "calibration.camera_matrix")?,
+        distortion: numbers::<5>(get(&v, "calibration.distortion_vector")?, "calibration.distortion_vector")?,
         planes,
-        platform_rotation: matrix(
-            get(cal, "platform_rotation").map_err(|_| err("calibration.platform_rotation", "is missing"))?,
-            "calibration.platform_rotation",
-        )?,
+        platform_rotation: matrix(get(&v, "calibration.platform_rotation")?, "calibration.platform_rotation")?,
         platform_translation: numbers::<3>(
-            get(cal, "platform_translation").map_err(|_| err("calibration.platform_translation", "is missing"))?,
+            get(&v, "calibration.platform_translation")?,
             "calibration.platform_translation",
         )?,
         radius_mm: optional("turntable.radius")?,

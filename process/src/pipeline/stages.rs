@@ -398,7 +398,8 @@ pub fn register(
 /// Registers a laser scan: each laser's lines, placed by the turntable, form one cloud, and every
 /// laser's cloud is aligned with the reference laser's ([`crate::lasers`]); the lines are then merged
 /// again at their corrected placements, cropped like [`merge`]. A correction beyond the tolerance is
-/// not applied but listed as refused. Needs lines of at least two lasers.
+/// not applied but listed as refused. With lines of fewer than two lasers (a laser whose frames gave
+/// nothing) there is nothing to align: the lines are merged as the turntable placed them.
 pub fn register_lasers(
     views: &[ViewGrid],
     axis: &TurntableAxis,
@@ -415,9 +416,6 @@ pub fn register_lasers(
             merge_at(&lines, &poses, crop).0
         })
         .collect();
-    if clouds.iter().filter(|c| !c.is_empty()).count() < 2 {
-        return Err(StageError::TooFewViews(clouds.iter().filter(|c| !c.is_empty()).count()));
-    }
     let noise = crate::lasers::line_noise(views.iter().filter_map(|v| match v.data {
         ViewData::Sparse(s) => Some((&s.points[..], &s.pixels[..])),
         ViewData::Grid(_) => None,

@@ -69,16 +69,18 @@ pub struct LasersReport {
     pub noise_mm: Real,
     /// Every other laser's alignment.
     pub lasers: Vec<LaserAlignment>,
+    /// Lasers that could not be aligned (too little overlap), and why: they keep their placement.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub unaligned: Vec<String>,
 }
 
 impl LasersReport {
-    /// One warning per laser whose cloud and the reference laser's lie farther apart than the lines'
-    /// noise allows: a laser plane in the rig that is off.
+    /// One warning per laser that could not be aligned, and per laser whose cloud and the reference
+    /// laser's lie farther apart than the lines' noise allows: a laser plane in the rig that is off.
     pub fn disagreements(&self) -> Vec<String> {
-        self.lasers
-            .iter()
-            .filter(|a| self.noise_mm > 0.0 && a.disagrees(self.noise_mm))
-            .map(|a| {
+        let unaligned = self.unaligned.iter().cloned();
+        unaligned
+            .chain(self.lasers.iter().filter(|a| self.noise_mm > 0.0 && a.disagrees(self.noise_mm)).map(|a| {
                 format!(
                     "laser {} and laser {} disagree: their surfaces lie {:.3} mm apart ({:.3} mm after a {:.2}° and \
                      {:.2} mm correction of laser {}) where the lines' noise is {:.3} mm: a laser plane in rig.toml \
@@ -92,7 +94,7 @@ impl LasersReport {
                     a.laser,
                     self.noise_mm
                 )
-            })
+            }))
             .collect()
     }
 }
@@ -166,7 +168,8 @@ fn median_nearest(points: &[Point3], target: &IcpTarget) -> Real {
 /// Aligns every laser's cloud (object frame, unit normals, as the turntable placed it) with the
 /// first laser with points; `noise_mm` is the lines' noise ([`line_noise`]).
 /// Returns each laser's correction (the identity for the reference) and the report. A laser with
-/// no points keeps the identity and is not reported.
+/// no points keeps the identity and is not reported; one ICP cannot align keeps it and is listed in
+/// [`LasersReport::unaligned`].
 pub fn align_lasers(
     clouds: &[PointCloud],
     noise_mm: Real,
@@ -174,7 +177,7 @@ pub fn align_lasers(
 ) -> Result<(Vec<Isometry3>, LasersReport), IcpError> {
     let reference = (0..clouds.len()).find(|&k| !clouds[k].is_empty()).unwrap_or(0);
     let mut corrections = vec![Isometry3::identity(); clouds.len()];
-    let mut report = LasersReport { reference, noise_mm, lasers: Vec::new() };
+    let mut report = LasersReport { reference, noise_mm, lasers: Vec::new(), unaligned: Vec::new() };
     let normals_of = |c: &PointCloud| c.normals.clone().unwrap_or_else(|| vec![Vector3::zeros(); c.len()]);
     let Some(r) = clouds.get(reference).filter(|c| !c.is_empty()) else { return Ok((corrections, report)) };
     let target = IcpTarget::new(r.positions.clone(), normals_of(r), None);
@@ -186,14 +189,28 @@ pub fn align_lasers(
         // Lines of two lasers need not fall on the same meridians: a point's nearest point on the
         // other laser's surface may lie half a line spacing away, its plane still the right one. The
         // correspondences reach at least twice the typical such distance.
-        let reach = params.reach_mm.max(2.0 * median_nearest(&cloud.positions, &target));
+        // At most the largest misalignment the ICP starts from: lasers that do not overlap at all
+        // must not stretch the reach until they seem to.
+        let reach = params.reach_mm.max(2.0 * median_nearest(&cloud.positions, &target)).min(params.icp.start_distance);
         let icp_params = IcpParams {
             min_distance: params.icp.min_distance.max(reach),
             start_distance: params.icp.start_distance.max(2.0 * reach),
             ..params.icp
         };
         let prior = params.prior.map(|p| (&identity, p));
-        let (pose, icp) = icp_near(&cloud.positions, &normals_of(cloud), &target, &identity, prior, &icp_params)?;
+        // Lasers that barely overlap (a laser whose frames mostly failed, an object one laser hardly
+        // reaches) give ICP too little to hold on to: that laser stays where the turntable put it,
+        // and the report says so rather than failing the scan.
+        let (pose, icp) = match icp_near(&cloud.positions, &normals_of(cloud), &target, &identity, prior, &icp_params) {
+            Ok(aligned) => aligned,
+            Err(e) => {
+                report.unaligned.push(format!(
+                    "laser {k} could not be aligned with laser {reference} ({e}): its lines keep their turntable \
+                     placement"
+                ));
+                continue;
+            }
+        };
         let centroid =
             Point3::from(cloud.positions.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / cloud.len() as Real);
         let (gap_before_mm, overlap_before) = gap(&cloud.positions, &identity, &target, reach);
@@ -295,6 +312,16 @@ mod tests {
         assert!(a.gap_after_mm > 0.3 && a.gap_after_mm <= a.gap_before_mm, "{a:?}");
         assert!(a.disagrees(0.02));
         assert!(c[1].rotation.angle() < 0.01 || a.gap_after_mm < a.gap_before_mm, "{:?}", c[1]);
+    }
+
+    #[test]
+    fn a_laser_that_overlaps_nothing_keeps_its_placement_and_is_said() {
+        let mut far = lines(36, 0.05, 0.0);
+        far.positions.iter_mut().for_each(|p| p.z += 500.0);
+        let (c, report) = align_lasers(&[lines(72, 0.0, 0.0), far], 0.02, &params()).unwrap();
+        assert_eq!(c[1], Isometry3::identity());
+        assert!(report.lasers.is_empty() && report.unaligned.len() == 1, "{report:?}");
+        assert!(report.disagreements()[0].contains("laser 1 could not be aligned"), "{:?}", report.disagreements());
     }
 
     #[test]
