@@ -24,6 +24,11 @@ pub struct DecodeOpts {
     /// whiteThreshold is 5).
     #[arg(long, default_value_t = DecodeParams::default().bit_threshold)]
     pub bit_threshold: u8,
+    /// Without phase-shift frames, refine each Gray-code column to sub-pixel by a plane fitted to its
+    /// decoded neighbours within this many camera pixels; 0 keeps whole projector pixels (OpenCV's
+    /// GrayCodePattern result).
+    #[arg(long, value_name = "PIXELS", default_value_t = DecodeParams::default().gray_fit_radius)]
+    pub gray_fit_radius: usize,
 }
 
 impl DecodeOpts {
@@ -34,6 +39,7 @@ impl DecodeOpts {
         Ok(DecodeParams {
             shadow_threshold: self.shadow_threshold,
             bit_threshold: self.bit_threshold,
+            gray_fit_radius: self.gray_fit_radius,
             ..Default::default()
         })
     }

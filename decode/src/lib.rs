@@ -7,7 +7,8 @@
 //!
 //! - [`structured_light::decode_view`]: Gray code with inverses ([`gray_code`]), shadow and contrast
 //!   masks, N-step phase shift unwrapped by the Gray code ([`phase_shift`]), into a
-//!   [`ProjectorMap`];
+//!   [`ProjectorMap`]; without phase shift, Gray-code coordinates refined to sub-pixel by local plane
+//!   fits ([`gray_subpixel`]);
 //! - [`laser_line::detect_line`]: sub-pixel stripe centres (Gaussian fit or centre of mass) with
 //!   faint, saturated and doubled rows rejected;
 //! - [`colormap::turbo`]: the colour map of preview images.
@@ -23,6 +24,7 @@
 
 pub mod colormap;
 pub mod gray_code;
+pub mod gray_subpixel;
 pub mod laser_line;
 pub mod phase_shift;
 pub mod projector_map;

@@ -23,11 +23,21 @@ pub struct DecodeParams {
     pub min_modulation: f64,
     /// Phase and Gray code must agree within this many projector pixels (the period consistency check).
     pub phase_tolerance_px: f64,
+    /// Without phase shift, a Gray-code coordinate is refined from a plane fitted to its decoded
+    /// neighbours within this radius (camera pixels; [`crate::gray_subpixel`]). 0 keeps the integer
+    /// column, as OpenCV's GrayCodePattern gives it.
+    pub gray_fit_radius: usize,
 }
 
 impl Default for DecodeParams {
     fn default() -> Self {
-        DecodeParams { shadow_threshold: 12.0, bit_threshold: 1, min_modulation: 3.0, phase_tolerance_px: 1.5 }
+        DecodeParams {
+            shadow_threshold: 12.0,
+            bit_threshold: 1,
+            min_modulation: 3.0,
+            phase_tolerance_px: 1.5,
+            gray_fit_radius: 4,
+        }
     }
 }
 
@@ -280,6 +290,13 @@ pub fn decode_view(
                 }
             }
         });
+    // Integer Gray-code coordinates refined after the fact: the fit needs whole neighbourhoods.
+    if cols.phase.is_none() {
+        crate::gray_subpixel::refine(&mut map.u, w, h, params.gray_fit_radius);
+    }
+    if rows.as_ref().is_some_and(|r| r.phase.is_none()) {
+        crate::gray_subpixel::refine(&mut map.v, w, h, params.gray_fit_radius);
+    }
     let report = DecodeReport {
         pixels: w * h,
         lit: lit.iter().filter(|&&l| l).count(),
@@ -335,7 +352,8 @@ mod tests {
             state ^= state << 17;
             (state >> 24) as u8
         };
-        let params = DecodeParams::default();
+        // The block path alone: integers, as the reference primitives give them.
+        let params = DecodeParams { gray_fit_radius: 0, ..DecodeParams::default() };
         let seq = rig::patterns::structured_light_sequence(
             40,
             30,
