@@ -55,7 +55,7 @@ pub enum Command {
     /// Process a scan folder: decode, triangulate, denoise, merge, register, fuse, reconstruct, remesh
     /// (reuses every output whose inputs and settings are unchanged).
     Process(ProcessArgs),
-    /// Denoise range grids (PLY with range_grid) by the non-local filter, or the bilateral baseline.
+    /// Denoise range grids (PLY range grids) by the non-local filter, or the bilateral baseline.
     Denoise(DenoiseArgs),
     /// Register a processed scan's views by multi-view ICP from the turntable poses, and merge them again.
     Register(RegisterArgs),
@@ -304,11 +304,12 @@ pub struct InfoArgs {
 
 #[derive(clap::Args, Debug)]
 pub struct ConvertArgs {
-    /// Input mesh or cloud (.ply, .obj, .off).
+    /// Input mesh or cloud (.ply, .obj, .off, .stl, .glb, .e57).
     pub input: PathBuf,
-    /// Output file (.ply or .obj); written atomically.
+    /// Output file: a mesh as .ply, .obj, .stl (to print) or .glb (glTF, for web viewers); a cloud as
+    /// .ply, .obj, .glb or .e57 (for surveying tools). Written atomically.
     pub output: PathBuf,
-    /// Write ASCII PLY instead of binary little-endian.
+    /// Write ASCII instead of binary (PLY: instead of little-endian; STL: instead of binary STL).
     #[arg(long)]
     pub ascii: bool,
     /// Write coordinates as `double` instead of `float` (PLY).
@@ -527,7 +528,7 @@ pub struct DecodeArgs {
     #[arg(long, value_parser = parse_size)]
     pub projector: Option<(u32, u32)>,
     /// A calibrated rig (camera and projector): the map is triangulated, and `-o cloud.ply` writes the
-    /// points as a range grid (Stanford `range_grid` layout) other tools open as a cloud. Frames are
+    /// points as a range grid (a cloud with each point's `grid_col grid_row`) other tools open as a cloud. Frames are
     /// turned as its `[image]` says.
     #[arg(long)]
     pub rig: Option<PathBuf>,
@@ -572,7 +573,7 @@ pub struct DemoArgs {
 
 #[derive(clap::Args, Debug)]
 pub struct DenoiseArgs {
-    /// Range grids: PLY files with a range_grid element (scanrig's views, Stanford scans). Several files
+    /// Range grids: PLY files with grid cells (scanrig's views, Stanford scans' range_grid). Several files
     /// with --temporal form a sequence, in the order given.
     #[arg(required = true)]
     pub inputs: Vec<PathBuf>,
@@ -594,7 +595,7 @@ pub struct DenoiseArgs {
 pub struct ReconstructArgs {
     /// The oriented cloud (.ply or .obj with normals; `scanrig fuse` writes one).
     pub input: PathBuf,
-    /// The mesh to write (.ply or .obj).
+    /// The mesh to write: .ply (with vertex normals), .obj, .stl (binary, to print) or .glb (glTF).
     #[arg(long, short)]
     pub out: PathBuf,
     /// The method and its settings.
@@ -614,9 +615,9 @@ pub struct ReconstructArgs {
 
 #[derive(clap::Args, Debug)]
 pub struct RemeshArgs {
-    /// The triangle mesh (.ply, .obj or .off; polygons are split into triangles).
+    /// The triangle mesh (.ply, .obj, .off, .stl or .glb; polygons are split into triangles).
     pub input: PathBuf,
-    /// The quad mesh to write (.obj or .ply).
+    /// The quad mesh to write: .obj or .ply (polygons), or .stl / .glb (triangulated).
     #[arg(long, short)]
     pub out: PathBuf,
     /// The remesher's settings.

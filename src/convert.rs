@@ -13,11 +13,39 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
         comments: Vec::new(),
     };
     // A file with faces converts as a mesh; a bare vertex list as a cloud, keeping all its attributes.
+    let mut grid_note = None;
     let mesh: Option<PolyMesh> = match MeshFormat::of(&args.input) {
         Some(MeshFormat::Ply) => {
             let ply = rig::ply::read(&args.input)?;
             if let Some(u) = ply.header.units() {
                 opts = opts.with_units(&u);
+            }
+            // A range grid stays one in PLY; in any other format only its points can go, and that is said.
+            if rig::ply::is_range_grid(&ply) {
+                let grid = rig::ply::range_grid_from_ply(&ply).map_err(|e| e.with_path(&args.input))?;
+                if MeshFormat::of(&args.output) == Some(MeshFormat::Ply) {
+                    rig::ply::write_range_grid(&args.output, &grid, &opts)?;
+                    let valid = grid.valid_count();
+                    if args.json {
+                        let json = serde_json::json!({"output": args.output, "kind": "range_grid", "width": grid.width, "height": grid.height, "points": valid});
+                        println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
+                    } else {
+                        println!(
+                            "{}: range grid {}x{}, {valid} points",
+                            args.output.display(),
+                            grid.width,
+                            grid.height
+                        );
+                    }
+                    return Ok(());
+                }
+                grid_note = Some(format!(
+                    "note: {} is a {}x{} range grid; {} keeps its points, not its grid cells (PLY keeps both)",
+                    args.input.display(),
+                    grid.width,
+                    grid.height,
+                    args.output.display()
+                ));
             }
             let has_faces = ply.element("face").is_some() || ply.element("tristrips").is_some();
             if has_faces { Some(rig::ply::mesh_from_ply(&ply).map_err(|e| e.with_path(&args.input))?) } else { None }
@@ -58,6 +86,9 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             }
         }
         None => {
+            if let Some(note) = &grid_note {
+                eprintln!("{note}");
+            }
             let cloud = rig::read_cloud(&args.input)?;
             check(too_large(&mut cloud.positions.iter()))?;
             rig::write_cloud(&args.output, &cloud, &opts).with_context(|| "writing the point cloud")?;

@@ -36,7 +36,7 @@ struct FileInfo {
     /// Axis-aligned bounds of the vertices, in the file's units.
     #[serde(skip_serializing_if = "Option::is_none")]
     bounding_box: Option<BoxInfo>,
-    /// A Stanford `range_grid`: columns, rows and cells holding a vertex.
+    /// A range grid (scanrig's or Stanford's layout): columns, rows and cells holding a vertex.
     #[serde(skip_serializing_if = "Option::is_none")]
     range_grid: Option<GridInfo>,
     /// PLY `comment` lines.
@@ -130,7 +130,7 @@ fn ply_info(path: &Path, info: &mut FileInfo) -> Result<()> {
     if ply.element("face").is_some() || ply.element("tristrips").is_some() {
         info.faces = Some(face_info(&rig::ply::mesh_from_ply(&ply).map_err(located)?));
     }
-    if ply.element("range_grid").is_some() {
+    if rig::ply::is_range_grid(&ply) {
         let g = rig::ply::range_grid_from_ply(&ply).map_err(located)?;
         info.range_grid = Some(GridInfo { width: g.width, height: g.height, valid: g.valid_count() });
     }

@@ -36,7 +36,7 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let seconds = start.elapsed().as_secs_f64();
-    rig::write_mesh(&args.out, &mesh.to_poly(), &opts)?;
+    rig::write_mesh(&args.out, &stages::mesh_for_output(&mesh), &opts)?;
     let t = topology(&mesh);
     let peak = rig::memory::peak_resident_bytes();
     let mut o = std::io::stdout().lock();

@@ -75,6 +75,8 @@ pub use point_cloud::{Aabb, PointCloud};
 pub mod mesh;
 pub use mesh::{FaceSizes, PolyMesh, TriMesh};
 
+pub mod e57;
+pub mod glb;
 pub mod image;
 pub mod npy;
 pub mod obj;
@@ -82,6 +84,7 @@ pub mod off;
 pub mod opencv_yaml;
 pub mod ply;
 pub mod remesh_inputs;
+pub mod stl;
 
 /// Structured-light and laser pattern sequences.
 pub mod patterns;

@@ -50,6 +50,20 @@ impl TriMesh {
         Aabb::of(&self.vertices)
     }
 
+    /// Unit vertex normals: the area-weighted sum of the incident faces' normals (faces counter-clockwise
+    /// seen from outside, so they point out); a vertex without area gets +z rather than NaN, which
+    /// readers such as glTF viewers refuse.
+    pub fn vertex_normals(&self) -> Vec<Vector3> {
+        let mut n = vec![Vector3::zeros(); self.vertices.len()];
+        for f in &self.faces {
+            let [a, b, c] = f.map(|i| self.vertices[i as usize]);
+            // Twice the area times the unit normal: the area weighting for free.
+            let fn_ = (b - a).cross(&(c - a));
+            f.iter().for_each(|&i| n[i as usize] += fn_);
+        }
+        n.into_iter().map(|v| v.try_normalize(1e-300).unwrap_or_else(Vector3::z)).collect()
+    }
+
     /// This mesh as a polygon mesh.
     pub fn to_poly(&self) -> PolyMesh {
         PolyMesh {
@@ -57,6 +71,7 @@ impl TriMesh {
             indices: self.faces.iter().flatten().copied().collect(),
             offsets: (0..=self.faces.len() as u32).map(|i| 3 * i).collect(),
             normals: self.normals.clone(),
+            colors: None,
         }
     }
 }
@@ -79,11 +94,13 @@ pub struct PolyMesh {
     pub offsets: Vec<u32>,
     /// Optional per-vertex unit normals.
     pub normals: Option<Vec<Vector3>>,
+    /// Optional per-vertex 8-bit RGB colours.
+    pub colors: Option<Vec<[u8; 3]>>,
 }
 
 impl Default for PolyMesh {
     fn default() -> Self {
-        PolyMesh { vertices: Vec::new(), indices: Vec::new(), offsets: vec![0], normals: None }
+        PolyMesh { vertices: Vec::new(), indices: Vec::new(), offsets: vec![0], normals: None, colors: None }
     }
 }
 
@@ -142,6 +159,41 @@ impl PolyMesh {
         TriMesh { vertices: self.vertices.clone(), faces, normals: self.normals.clone() }
     }
 
+    /// Starts every polygon at a corner from which the fan [`PolyMesh::triangulate`] — and every reader
+    /// that triangulates on load (Open3D, trimesh, MeshLab) — makes no diagonal that is already an edge of
+    /// the mesh or another polygon's diagonal: such a diagonal would be shared by three or four triangles,
+    /// a non-manifold edge. Faces are only rotated (orientation and geometry stay). Returns the number of
+    /// polygons no rotation could clear, left as they were.
+    pub fn rotate_faces_for_fans(&mut self) -> usize {
+        use std::collections::HashSet;
+        let key = |a: u32, b: u32| (a.min(b), a.max(b));
+        let mut taken: HashSet<(u32, u32)> = HashSet::new();
+        for f in self.faces() {
+            for k in 0..f.len() {
+                taken.insert(key(f[k], f[(k + 1) % f.len()]));
+            }
+        }
+        let mut stuck = 0;
+        for fi in 0..self.face_count() {
+            let (start, end) = (self.offsets[fi] as usize, self.offsets[fi + 1] as usize);
+            let n = end - start;
+            if n < 4 {
+                continue;
+            }
+            let face = self.indices[start..end].to_vec();
+            let face = &face;
+            let diagonals = |r: usize| (2..n - 1).map(move |k| key(face[r], face[(r + k) % n]));
+            match (0..n).find(|&r| diagonals(r).all(|d| !taken.contains(&d))) {
+                Some(r) => {
+                    taken.extend(diagonals(r));
+                    self.indices[start..end].rotate_left(r);
+                }
+                None => stuck += 1,
+            }
+        }
+        stuck
+    }
+
     /// The axis-aligned bounding box, `None` without vertices.
     pub fn bounding_box(&self) -> Option<Aabb> {
         Aabb::of(&self.vertices)
@@ -169,5 +221,27 @@ mod tests {
         let m = PolyMesh::from_faces(v, [vec![0u32, 1, 2], vec![0, 1, 3, 4]]);
         assert_eq!(m.face_sizes(), FaceSizes { triangles: 1, quads: 1, larger: 0 });
         assert_eq!(m.triangulate().faces, vec![[0, 1, 2], [0, 1, 3], [0, 3, 4]]);
+    }
+
+    /// Two quads sharing the diagonal 0–2 (a quad's diagonal can also be a third face's edge): the fan
+    /// from each first corner would give edge 0–2 four triangles. Rotating the second clears it.
+    #[test]
+    fn faces_are_rotated_so_that_fans_add_no_shared_diagonal() {
+        let v = vec![Point3::origin(); 7];
+        let mut m = PolyMesh::from_faces(v, [vec![0u32, 1, 2, 3], vec![0, 4, 2, 5], vec![2, 6, 0]]);
+        let edges = |m: &PolyMesh| {
+            let mut count = std::collections::HashMap::new();
+            for f in m.triangulate().faces {
+                for k in 0..3 {
+                    *count.entry((f[k].min(f[(k + 1) % 3]), f[k].max(f[(k + 1) % 3]))).or_insert(0) += 1;
+                }
+            }
+            count
+        };
+        assert_eq!(edges(&m)[&(0, 2)], 5);
+        assert_eq!(m.rotate_faces_for_fans(), 0);
+        assert!(edges(&m).values().all(|&c| c <= 2), "{:?}", edges(&m));
+        assert_eq!(m.face(0), &[1, 2, 3, 0]);
+        assert_eq!(m.face(1), &[4, 2, 5, 0]);
     }
 }

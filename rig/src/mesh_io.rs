@@ -1,8 +1,9 @@
-//! Reading and writing meshes and clouds by file extension (`.ply`, `.obj`, `.off`).
+//! Reading and writing meshes and clouds by file extension: `.ply`, `.obj`, `.off` (read), `.stl`,
+//! `.glb` and `.e57` (clouds).
 
 use crate::error::Error;
-use crate::ply::WriteOptions;
-use crate::{PointCloud, PolyMesh, obj, off, ply};
+use crate::ply::{Encoding, WriteOptions};
+use crate::{PointCloud, PolyMesh, e57, glb, obj, off, ply, stl};
 use std::path::Path;
 
 /// The mesh and cloud formats this crate reads.
@@ -14,6 +15,12 @@ pub enum MeshFormat {
     Obj,
     /// Object File Format.
     Off,
+    /// STL (binary or ASCII), triangles only.
+    Stl,
+    /// glTF 2.0 binary.
+    Glb,
+    /// ASTM E57 point clouds.
+    E57,
 }
 
 impl MeshFormat {
@@ -24,27 +31,41 @@ impl MeshFormat {
             "ply" => Some(MeshFormat::Ply),
             "obj" => Some(MeshFormat::Obj),
             "off" => Some(MeshFormat::Off),
+            "stl" => Some(MeshFormat::Stl),
+            "glb" => Some(MeshFormat::Glb),
+            "e57" => Some(MeshFormat::E57),
             _ => None,
         }
     }
 }
 
+const READ: &str = ".ply, .obj, .off, .stl, .glb or .e57";
+
 fn format_of(path: &Path, expected: &'static str) -> Result<MeshFormat, Error> {
     MeshFormat::of(path).ok_or_else(|| Error::UnknownFileType { path: path.to_path_buf(), expected })
 }
 
-/// Reads a polygon mesh from PLY, OBJ or OFF.
+/// Reads a polygon mesh from PLY, OBJ, OFF, STL or GLB (an E57 file holds clouds, not meshes).
 pub fn read_mesh(path: &Path) -> Result<PolyMesh, Error> {
-    match format_of(path, ".ply, .obj or .off")? {
+    match format_of(path, ".ply, .obj, .off, .stl or .glb")? {
         MeshFormat::Ply => ply::read_mesh(path),
-        MeshFormat::Obj => obj::read(path).map(|o| o.mesh),
+        MeshFormat::Obj => obj::read(path).map(|o| PolyMesh { colors: o.colors, ..o.mesh }),
         MeshFormat::Off => off::read(path),
+        MeshFormat::Stl => stl::read(path),
+        MeshFormat::Glb => glb::read(path),
+        MeshFormat::E57 => Err(Error::UnknownFileType {
+            path: path.to_path_buf(),
+            expected: "a mesh (.ply, .obj, .off, .stl or .glb); an E57 file holds point clouds",
+        }),
     }
 }
 
-/// Reads a point cloud from PLY (all attributes), OBJ (`v`, colours, `vn`) or OFF (vertices).
+/// Reads a point cloud from PLY (all attributes), OBJ (`v`, colours, `vn`), OFF or STL (vertices), GLB
+/// (vertices, normals, colours) or E57 (points, colours).
 pub fn read_cloud(path: &Path) -> Result<PointCloud, Error> {
-    match format_of(path, ".ply, .obj or .off")? {
+    let of_mesh =
+        |m: PolyMesh| PointCloud { colors: m.colors, normals: m.normals, ..PointCloud::from_positions(m.vertices) };
+    match format_of(path, READ)? {
         MeshFormat::Ply => ply::read_cloud(path),
         MeshFormat::Obj => obj::read(path).map(|o| PointCloud {
             colors: o.colors,
@@ -52,27 +73,37 @@ pub fn read_cloud(path: &Path) -> Result<PointCloud, Error> {
             ..PointCloud::from_positions(o.mesh.vertices)
         }),
         MeshFormat::Off => off::read(path).map(|m| PointCloud::from_positions(m.vertices)),
+        MeshFormat::Stl => stl::read(path).map(of_mesh),
+        MeshFormat::Glb => glb::read(path).map(of_mesh),
+        MeshFormat::E57 => e57::read(path),
     }
 }
 
-/// Writes a polygon mesh as PLY (with `opts`) or OBJ, atomically.
+/// Writes a polygon mesh as PLY (with `opts`), OBJ, STL (binary, or ASCII when `opts` ask for it) or GLB,
+/// atomically.
 pub fn write_mesh(path: &Path, mesh: &PolyMesh, opts: &WriteOptions) -> Result<(), Error> {
-    match format_of(path, ".ply or .obj")? {
+    match format_of(path, ".ply, .obj, .stl or .glb")? {
         MeshFormat::Ply => ply::write_mesh(path, mesh, opts),
         MeshFormat::Obj => obj::write_mesh(path, mesh),
-        MeshFormat::Off => {
-            Err(Error::UnknownFileType { path: path.to_path_buf(), expected: ".ply or .obj (OFF is read-only)" })
-        }
+        MeshFormat::Stl => stl::write_mesh(path, mesh, opts.encoding == Encoding::Ascii),
+        MeshFormat::Glb => glb::write_mesh(path, mesh),
+        MeshFormat::Off | MeshFormat::E57 => Err(Error::UnknownFileType {
+            path: path.to_path_buf(),
+            expected: ".ply, .obj, .stl or .glb for a mesh (OFF is read-only, E57 holds clouds)",
+        }),
     }
 }
 
-/// Writes a point cloud as PLY (with `opts`) or OBJ, atomically.
+/// Writes a point cloud as PLY (with `opts`), OBJ, GLB or E57, atomically.
 pub fn write_cloud(path: &Path, cloud: &PointCloud, opts: &WriteOptions) -> Result<(), Error> {
-    match format_of(path, ".ply or .obj")? {
+    match format_of(path, ".ply, .obj, .glb or .e57")? {
         MeshFormat::Ply => ply::write_cloud(path, cloud, opts),
         MeshFormat::Obj => obj::write_cloud(path, cloud),
-        MeshFormat::Off => {
-            Err(Error::UnknownFileType { path: path.to_path_buf(), expected: ".ply or .obj (OFF is read-only)" })
-        }
+        MeshFormat::Glb => glb::write_cloud(path, cloud),
+        MeshFormat::E57 => e57::write_cloud(path, cloud),
+        MeshFormat::Off | MeshFormat::Stl => Err(Error::UnknownFileType {
+            path: path.to_path_buf(),
+            expected: ".ply, .obj, .glb or .e57 for a point cloud (OFF is read-only, STL holds triangles)",
+        }),
     }
 }

@@ -194,11 +194,11 @@ fn write_vertices(out: &mut Vec<u8>, positions: &[Point3], colors: Option<&[[u8;
     }
 }
 
-/// A mesh as OBJ text: `v` (and `vn` where the mesh has normals), then `f` lines, triangles and quads
+/// A mesh as OBJ text: `v` (with colours, and `vn`, where the mesh has them), then `f` lines, triangles and quads
 /// alike. Coordinates are written in shortest round-trip form, so reading gives back the same values.
 pub fn mesh_to_bytes(mesh: &PolyMesh) -> Vec<u8> {
     let mut out = format!("# written by scanrig {}\n", env!("CARGO_PKG_VERSION")).into_bytes();
-    write_vertices(&mut out, &mesh.vertices, None, mesh.normals.as_deref());
+    write_vertices(&mut out, &mesh.vertices, mesh.colors.as_deref(), mesh.normals.as_deref());
     for f in mesh.faces() {
         out.push(b'f');
         for &v in f {

@@ -39,6 +39,8 @@ pub struct RangeGrid {
     pub normals: Option<Vec<Vector3>>,
     /// Optional confidence per cell.
     pub confidence: Option<Vec<f32>>,
+    /// Optional 8-bit RGB colour per cell (the view's texture frame).
+    pub colors: Option<Vec<[u8; 3]>>,
     /// The sensor that measured the grid.
     pub sensor: Sensor,
 }
@@ -54,6 +56,7 @@ impl RangeGrid {
             valid: vec![false; n],
             normals: None,
             confidence: None,
+            colors: None,
             sensor,
         }
     }

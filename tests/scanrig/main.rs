@@ -4,6 +4,7 @@
 mod bad_input;
 mod cli;
 mod data_files;
+mod independent_readers;
 #[cfg(feature = "projector-window")]
 mod projector_window;
 mod run;

@@ -4,7 +4,7 @@
 //! ```text
 //! stages.json                  how each output was made (see `records`): reuse is decided there
 //! decode/view_NNN.npy          structured light: (H, W, 3) projector u, v, confidence (NaN undecoded)
-//! views/view_NNN.ply           the view's range grid (camera frame, mm; Stanford range_grid layout)
+//! views/view_NNN.ply           the view's range grid (camera frame, mm; a cloud with grid_col/grid_row)
 //! views/view_NNN_laserK.ply    laser scans: one sparse view (points and their pixels) per laser
 //! denoised/view_NNN.ply        the range grid after non-local denoising (structured light)
 //! preview/view_NNN_depth.png   colour depth map; preview/view_NNN_projector.png the decoded map
@@ -15,7 +15,8 @@
 //! fused.ply                    mean-shift fusion of the registered (else merged) cloud
 //! closed.ply                   the fused cloud with flat caps over its open base and top
 //! mesh.ply                     watertight surface of the closed cloud (FFT or AdFFT, ch. 5)
-//! quads.obj                    quad remesh of mesh.ply along a harmonic field's streamlines (ch. 6)
+//! mesh.stl, mesh.glb           the same mesh for printing (binary STL) and web viewers (glTF binary)
+//! quads.obj, quads.ply         quad remesh of mesh.ply along a harmonic field's streamlines (ch. 6)
 //! report.json                  what every stage did (`ProcessReport`), merged stage by stage
 //! ```
 
@@ -43,6 +44,12 @@ pub const MESH: &str = "mesh.ply";
 pub const CLOSED: &str = "closed.ply";
 /// The quad mesh.
 pub const QUADS: &str = "quads.obj";
+/// The quad mesh as PLY polygons.
+pub const QUADS_PLY: &str = "quads.ply";
+/// The mesh as binary STL.
+pub const MESH_STL: &str = "mesh.stl";
+/// The mesh as glTF binary.
+pub const MESH_GLB: &str = "mesh.glb";
 /// The report.
 pub const REPORT: &str = "report.json";
 

@@ -96,6 +96,27 @@ impl Out {
     fn read_grid(&self, name: &str) -> Result<RangeGrid, Error> {
         Ok(rig::ply::read_range_grid(&self.path(name))?)
     }
+
+    /// Writes `name`, a copy of `source` in another format (mesh.stl of mesh.ply, …), unless the one
+    /// there was made from these very bytes; `make` gets what the source holds (read from the file when
+    /// the caller has not got it) and gives the copy's bytes.
+    fn export(
+        &mut self,
+        name: &str,
+        source: (&str, Hash),
+        held: Option<&rig::PolyMesh>,
+        make: impl Fn(&rig::PolyMesh) -> Vec<u8>,
+    ) -> Result<(), Error> {
+        let fp = Fingerprint::new(json!({ "export": name })).input(source.0, source.1);
+        if let Decision::Run(_) = self.records.decide(name, &fp) {
+            let bytes = match held {
+                Some(m) => make(m),
+                None => make(&rig::read_mesh(&self.path(source.0))?),
+            };
+            self.put(name, &bytes, fp, &json!({ "from": source.0 }))?;
+        }
+        Ok(())
+    }
 }
 
 /// A recorded report, typed (the default where an old record lacks it).
@@ -745,7 +766,7 @@ fn scan_stages(
                 Error::Stage { stage: Stage::Reconstruct, source }
             })?;
             report.warnings.extend(support);
-            let bytes = rig::ply::mesh_to_bytes(&mesh.to_poly(), &o.opts);
+            let bytes = rig::ply::mesh_to_bytes(&stages::mesh_for_output(&mesh), &o.opts);
             let hash = o.put(layout::MESH, &bytes, fp, &rr)?;
             let back = rig::ply::parse(&bytes).and_then(|p| rig::ply::mesh_from_ply(&p));
             let back = back.map_err(|e| e.with_path(&o.path(layout::MESH)))?.triangulate();
@@ -762,6 +783,11 @@ fn scan_stages(
         }
     };
     report.outputs.push(layout::MESH.into());
+    // The same surface for printing (binary STL) and for web viewers (GLB).
+    let held = mesh.as_ref().map(stages::mesh_for_output);
+    o.export(layout::MESH_STL, (layout::MESH, mesh_hash), held.as_ref(), rig::stl::mesh_to_binary)?;
+    o.export(layout::MESH_GLB, (layout::MESH, mesh_hash), held.as_ref(), rig::glb::mesh_to_bytes)?;
+    report.outputs.extend([layout::MESH_STL.into(), layout::MESH_GLB.into()]);
     o.records.save()?;
     progress(Stage::Reconstruct, 1, 1);
     if params.until < Stage::Remesh {
@@ -772,8 +798,11 @@ fn scan_stages(
     let t = Instant::now();
     let fp = Fingerprint::new(json!({ "remesh": params.remesh })).input(layout::MESH, mesh_hash);
     let decision = o.records.decide(layout::QUADS, &fp);
-    match &decision {
-        Decision::Reuse(rec) => report.remesh = Some(section(&decision, 0.0, recorded(&rec.report))),
+    let (quads_hash, quads) = match &decision {
+        Decision::Reuse(rec) => {
+            report.remesh = Some(section(&decision, 0.0, recorded(&rec.report)));
+            (rec.hash, None)
+        }
         Decision::Run(_) => {
             let input = match mesh.take() {
                 Some(m) => m,
@@ -781,11 +810,15 @@ fn scan_stages(
             };
             let (quads, rr) = stages::remesh(&input, &params.remesh)
                 .map_err(|source| Error::Stage { stage: Stage::Remesh, source })?;
-            o.put(layout::QUADS, &rig::obj::mesh_to_bytes(&quads), fp, &rr)?;
+            let hash = o.put(layout::QUADS, &rig::obj::mesh_to_bytes(&quads), fp, &rr)?;
             report.remesh = Some(section(&decision, t.elapsed().as_secs_f64(), rr));
+            (hash, Some(quads))
         }
-    }
-    report.outputs.push(layout::QUADS.into());
+    };
+    // PLY as well: Open3D's OBJ reader skips polygons unless asked to triangulate; its PLY reader keeps them.
+    let opts = o.opts.clone();
+    o.export(layout::QUADS_PLY, (layout::QUADS, quads_hash), quads.as_ref(), |m| rig::ply::mesh_to_bytes(m, &opts))?;
+    report.outputs.extend([layout::QUADS.into(), layout::QUADS_PLY.into()]);
     progress(Stage::Remesh, 1, 1);
     Ok(())
 }

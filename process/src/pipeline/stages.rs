@@ -693,7 +693,16 @@ pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, Remesh
             return Err(StageError::SpacingTooSmall { spacing, diagonal, ratio: default / spacing, smallest });
         }
     }
-    Ok(crate::remesh::remesh(mesh, params)?)
+    let (mut quads, report) = crate::remesh::remesh(mesh, params)?;
+    // Readers triangulate polygons by fans from the first corner; start each where that adds no
+    // non-manifold diagonal.
+    quads.rotate_faces_for_fans();
+    Ok((quads, report))
+}
+
+/// A reconstructed mesh as it is written: with its vertex normals, which viewers shade by.
+pub fn mesh_for_output(mesh: &TriMesh) -> PolyMesh {
+    PolyMesh { normals: Some(mesh.vertex_normals()), ..mesh.to_poly() }
 }
 
 /// How much finer than the default a remesh spacing may be.

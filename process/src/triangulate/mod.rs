@@ -210,6 +210,7 @@ impl Triangulator {
             valid,
             normals: None,
             confidence: Some(confidence),
+            colors: None,
             sensor: Sensor::Center(Point3::origin()),
         }
     }

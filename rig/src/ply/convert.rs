@@ -81,7 +81,7 @@ fn index(el: &Element, entry: usize, raw: f64, count: usize) -> Result<u32, Pars
 /// A mesh from `face` (lists of any size) or, failing that, `tristrips`.
 pub fn mesh_from_ply(ply: &PlyFile) -> Result<PolyMesh, ParseError> {
     let v = vertex_element(ply)?;
-    let mut mesh = PolyMesh { vertices: positions(v)?, normals: normals(v), ..Default::default() };
+    let mut mesh = PolyMesh { vertices: positions(v)?, normals: normals(v), colors: colors(v), ..Default::default() };
     let n = mesh.vertices.len();
     if let Some(f) = ply.element("face") {
         let (_, offsets, values) = f.first_list().ok_or_else(|| missing("a list property of element `face`".into()))?;
@@ -185,48 +185,75 @@ pub fn sparse_view_from_ply(ply: &PlyFile) -> Result<SparseView, ParseError> {
     Ok(view)
 }
 
-/// A Stanford range scan: the `range_grid` element (one list of 0 or 1 vertex index per cell, row-major
-/// as stored) sized by `obj_info num_cols` and `num_rows`, with normals and confidence where the vertices
-/// have them. The sensor comes from a `comment sensor …` line, else it is the Cyberware's: looking along
+/// A range scan on its grid, sized by `obj_info num_cols` and `num_rows`, with normals, colours and
+/// confidence where the vertices have them, in either layout: scanrig's (each vertex with its cell as
+/// `grid_col grid_row`) or Stanford's (a `range_grid` element: one list of 0 or 1 vertex index per cell,
+/// row-major). The sensor comes from a `comment sensor …` line, else it is the Cyberware's: looking along
 /// −z, so `Sensor::Direction(+z)`.
 pub fn range_grid_from_ply(ply: &PlyFile) -> Result<RangeGrid, ParseError> {
     let v = vertex_element(ply)?;
     let pts = positions(v)?;
-    let g = ply.element("range_grid").ok_or_else(|| missing("element `range_grid`".into()))?;
     let (w, h) = image_size(ply)?;
-    if w.checked_mul(h) != Some(g.len()) {
-        let msg = format!("range_grid has {} cells but obj_info says {w} × {h}", g.len());
-        return Err(ParseError::new(Location::File, Problem::Invalid(msg)));
+    let cells = w.checked_mul(h).filter(|&n| n <= MAX_SPARSE_PIXELS).ok_or_else(|| {
+        let msg = format!("obj_info gives a {w} × {h} grid, which no camera has");
+        ParseError::new(Location::File, Problem::Invalid(msg))
+    })?;
+    // Each vertex's cell, whichever the layout.
+    let mut placed: Vec<(usize, usize)> = Vec::with_capacity(pts.len());
+    if let (Some(cols), Some(rows)) = (v.scalar("grid_col"), v.scalar("grid_row")) {
+        for k in 0..pts.len() {
+            let (c, r) = (cols[k], rows[k]);
+            if c.fract() != 0.0 || r.fract() != 0.0 || !(0.0..w as f64).contains(&c) || !(0.0..h as f64).contains(&r) {
+                let msg = format!("cell ({c}, {r}) is not a cell of the {w} × {h} grid");
+                return Err(ParseError::new(at(v, k), Problem::Invalid(msg)));
+            }
+            placed.push((r as usize * w + c as usize, k));
+        }
+    } else {
+        let g = ply
+            .element("range_grid")
+            .ok_or_else(|| missing("element `range_grid`, or vertex properties `grid_col` and `grid_row`".into()))?;
+        if cells != g.len() {
+            let msg = format!("range_grid has {} cells but obj_info says {w} × {h}", g.len());
+            return Err(ParseError::new(Location::File, Problem::Invalid(msg)));
+        }
+        let (_, offsets, values) =
+            g.first_list().ok_or_else(|| missing("a list property of element `range_grid`".into()))?;
+        for cell in 0..g.len() {
+            match &values[offsets[cell]..offsets[cell + 1]] {
+                [] => {}
+                [r] => placed.push((cell, index(g, cell, *r, pts.len())? as usize)),
+                more => {
+                    let msg = format!("a range-grid cell holds {} vertices; at most 1 is allowed", more.len());
+                    return Err(ParseError::new(at(g, cell), Problem::Invalid(msg)));
+                }
+            }
+        }
     }
-    let (_, offsets, values) =
-        g.first_list().ok_or_else(|| missing("a list property of element `range_grid`".into()))?;
-    let sensor = sensor(ply);
-    let mut grid = RangeGrid::empty(w, h, sensor);
-    let vn = normals(v);
-    let vc = v.scalar("confidence");
-    let mut cell_normals = vn.as_ref().map(|_| vec![Vector3::zeros(); w * h]);
-    let mut cell_conf = vc.map(|_| vec![0.0f32; w * h]);
-    for cell in 0..g.len() {
-        match &values[offsets[cell]..offsets[cell + 1]] {
-            [] => {}
-            [r] => {
-                let k = index(g, cell, *r, pts.len())? as usize;
-                grid.points[cell] = pts[k];
-                grid.valid[cell] = true;
-                if let (Some(dst), Some(src)) = (cell_normals.as_mut(), vn.as_ref()) {
-                    dst[cell] = src[k];
-                }
-                if let (Some(dst), Some(src)) = (cell_conf.as_mut(), vc) {
-                    dst[cell] = src[k] as f32;
-                }
-            }
-            more => {
-                let msg = format!("a range-grid cell holds {} vertices; at most 1 is allowed", more.len());
-                return Err(ParseError::new(at(g, cell), Problem::Invalid(msg)));
-            }
+    let mut grid = RangeGrid::empty(w, h, sensor(ply));
+    let (vn, vc, vrgb) = (normals(v), v.scalar("confidence"), colors(v));
+    let mut cell_normals = vn.as_ref().map(|_| vec![Vector3::zeros(); cells]);
+    let mut cell_conf = vc.map(|_| vec![0.0f32; cells]);
+    let mut cell_rgb = vrgb.as_ref().map(|_| vec![[0u8; 3]; cells]);
+    for (cell, k) in placed {
+        if grid.valid[cell] {
+            let msg = format!("two vertices on grid cell ({}, {})", cell % w, cell / w);
+            return Err(ParseError::new(at(v, k), Problem::Invalid(msg)));
+        }
+        grid.points[cell] = pts[k];
+        grid.valid[cell] = true;
+        if let (Some(dst), Some(src)) = (cell_normals.as_mut(), vn.as_ref()) {
+            dst[cell] = src[k];
+        }
+        if let (Some(dst), Some(src)) = (cell_conf.as_mut(), vc) {
+            dst[cell] = src[k] as f32;
+        }
+        if let (Some(dst), Some(src)) = (cell_rgb.as_mut(), vrgb.as_ref()) {
+            dst[cell] = src[k];
         }
     }
     grid.normals = cell_normals;
     grid.confidence = cell_conf;
+    grid.colors = cell_rgb;
     Ok(grid)
 }

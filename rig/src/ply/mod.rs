@@ -3,8 +3,8 @@
 //! The reader takes ASCII, binary little- and big-endian, every scalar type, list properties of any
 //! count and item type, any property order, and elements it does not know (kept, never fatal). On top of
 //! the raw [`PlyFile`] sit conversions to the vocabulary types: [`read_cloud`], [`read_mesh`] (faces of
-//! any size, or Stanford `tristrips` turned into triangles) and [`read_range_grid`] (Stanford
-//! `range_grid` with its `obj_info num_cols/num_rows`).
+//! any size, or Stanford `tristrips` turned into triangles) and [`read_range_grid`] (scanrig's
+//! `grid_col grid_row` per vertex, or Stanford's `range_grid` element, with `obj_info num_cols/num_rows`).
 //!
 //! Bad files give an [`Error`] naming the file, the element and the entry (or the header
 //! line). Counts are checked against the bytes left before anything is allocated, so a header that
@@ -139,7 +139,14 @@ pub fn read_mesh(path: &Path) -> Result<PolyMesh, Error> {
     mesh_from_ply(&read(path)?).map_err(|e| e.with_path(path))
 }
 
-/// Reads a Stanford range scan (`range_grid` element and `obj_info num_cols/num_rows`).
+/// Whether a PLY file holds a range grid (either layout [`range_grid_from_ply`] reads).
+pub fn is_range_grid(ply: &PlyFile) -> bool {
+    ply.element("range_grid").is_some()
+        || ply.element("vertex").is_some_and(|v| v.scalar("grid_col").is_some() && v.scalar("grid_row").is_some())
+}
+
+/// Reads a range scan (scanrig's `grid_col grid_row` or Stanford's `range_grid`, and `obj_info
+/// num_cols/num_rows`).
 pub fn read_range_grid(path: &Path) -> Result<RangeGrid, Error> {
     range_grid_from_ply(&read(path)?).map_err(|e| e.with_path(path))
 }

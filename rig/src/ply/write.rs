@@ -132,6 +132,12 @@ fn vertex_props(opts: &WriteOptions, normals: bool) -> Vec<String> {
     props
 }
 
+const RGB: [&str; 3] = ["uchar red", "uchar green", "uchar blue"];
+
+fn write_rgb(body: &mut Body, c: Option<&[u8; 3]>) {
+    c.into_iter().flatten().for_each(|&v| body.value(ScalarType::U8, v as f64));
+}
+
 fn write_point(body: &mut Body, t: ScalarType, p: &Point3, n: Option<&Vector3>) {
     for c in p.iter() {
         body.value(t, *c);
@@ -147,51 +153,68 @@ pub fn cloud_to_bytes(cloud: &PointCloud, opts: &WriteOptions) -> Vec<u8> {
     let t = real(opts);
     let mut props = vertex_props(opts, cloud.normals.is_some());
     if cloud.colors.is_some() {
-        props.extend(["uchar red", "uchar green", "uchar blue"].map(String::from));
+        props.extend(RGB.map(String::from));
     }
     if cloud.confidence.is_some() {
         props.push("float confidence".into());
     }
+    // `int`, not `uint`: Open3D's attribute reader skips unsigned types other than uchar. (Ids beyond
+    // int's range, which no scan has, keep `uint` rather than wrap.)
+    let id_type = match &cloud.view_id {
+        Some(ids) if ids.iter().any(|&v| v > i32::MAX as u32) => ScalarType::U32,
+        _ => ScalarType::I32,
+    };
     if cloud.view_id.is_some() {
-        props.push("uint view_id".into());
+        props.push(format!("{} view_id", id_type.name()));
     }
     let mut body =
         Body { out: header(opts, &[("vertex", cloud.len(), props)]), encoding: opts.encoding, first_on_line: true };
     for (i, p) in cloud.positions.iter().enumerate() {
         write_point(&mut body, t, p, cloud.normals.as_ref().map(|n| &n[i]));
-        if let Some(c) = &cloud.colors {
-            c[i].iter().for_each(|&v| body.value(ScalarType::U8, v as f64));
-        }
+        write_rgb(&mut body, cloud.colors.as_ref().map(|c| &c[i]));
         if let Some(c) = &cloud.confidence {
             body.value(ScalarType::F32, c[i] as f64);
         }
         if let Some(v) = &cloud.view_id {
-            body.value(ScalarType::U32, v[i] as f64);
+            body.value(id_type, v[i] as f64);
         }
         body.end_entry();
     }
     body.out
 }
 
-/// A polygon mesh as PLY bytes: vertices (with normals where present), faces as
+/// A polygon mesh as PLY bytes: vertices (with normals and `red green blue` where present), faces as
 /// `list uchar int vertex_indices` (quads as 4-lists). A face with more than 255 corners does not fit a
 /// `uchar` count; such a mesh gets a `ushort` (or `uint`) count, which PLY readers take as well, so
-/// every polygon is written as it is.
+/// every polygon is written as it is. Faces of mixed sizes (a quad-dominant mesh) are written as ASCII
+/// even when binary is asked for, and the header says so: binary readers that size every list by the
+/// first (trimesh: "PLY is unexpected length!") cannot read them otherwise.
 pub fn mesh_to_bytes(mesh: &PolyMesh, opts: &WriteOptions) -> Vec<u8> {
     let t = real(opts);
     let largest = mesh.faces().map(|f| f.len()).max().unwrap_or(0);
+    let smallest = mesh.faces().map(|f| f.len()).min().unwrap_or(0);
+    let mut opts = opts.clone();
+    if smallest != largest && opts.encoding != Encoding::Ascii {
+        opts.encoding = Encoding::Ascii;
+        opts.comments.push("ascii: faces of mixed sizes, which binary PLY readers size wrongly".into());
+    }
     let (count_type, count_name) = match largest {
         0..=255 => (ScalarType::U8, "uchar"),
         256..=65_535 => (ScalarType::U16, "ushort"),
         _ => (ScalarType::U32, "uint"),
     };
+    let mut props = vertex_props(&opts, mesh.normals.is_some());
+    if mesh.colors.is_some() {
+        props.extend(RGB.map(String::from));
+    }
     let elements = [
-        ("vertex", mesh.vertices.len(), vertex_props(opts, mesh.normals.is_some())),
+        ("vertex", mesh.vertices.len(), props),
         ("face", mesh.face_count(), vec![format!("list {count_name} int vertex_indices")]),
     ];
-    let mut body = Body { out: header(opts, &elements), encoding: opts.encoding, first_on_line: true };
+    let mut body = Body { out: header(&opts, &elements), encoding: opts.encoding, first_on_line: true };
     for (i, p) in mesh.vertices.iter().enumerate() {
         write_point(&mut body, t, p, mesh.normals.as_ref().map(|n| &n[i]));
+        write_rgb(&mut body, mesh.colors.as_ref().map(|c| &c[i]));
         body.end_entry();
     }
     for f in mesh.faces() {
@@ -212,44 +235,34 @@ pub fn write_mesh(path: &Path, mesh: &PolyMesh, opts: &WriteOptions) -> Result<(
     write_atomic(path, &mesh_to_bytes(mesh, opts))
 }
 
-/// A range grid as a Stanford-style range scan: the valid cells as `vertex` (with normals and
-/// `confidence` where the grid has them), `element range_grid` with one list of 0 or 1 vertex index per
-/// cell (row-major), `obj_info num_cols/num_rows`, and the sensor as a `comment sensor …` line that
-/// [`range_grid_from_ply`](super::range_grid_from_ply) reads back.
+/// A range grid as a point cloud every reader opens: its valid cells as `vertex` (with normals,
+/// `red green blue` and `confidence` where the grid has them), each with its cell as `int grid_col
+/// grid_row`, the grid's size as `obj_info num_cols/num_rows`, and the sensor as a `comment sensor …`
+/// line; [`range_grid_from_ply`](super::range_grid_from_ply) reads it back, and reads Stanford's
+/// `range_grid` element too. (Written as Stanford's layout, a list of 0 or 1 index per cell, the file
+/// was one that binary readers which size every list by the first, trimesh among them, refuse.)
 pub fn range_grid_to_bytes(grid: &RangeGrid, opts: &WriteOptions) -> Vec<u8> {
     let t = real(opts);
-    let has_normals = grid.normals.is_some();
-    let mut props = vertex_props(opts, has_normals);
+    let mut props = vertex_props(opts, grid.normals.is_some());
+    if grid.colors.is_some() {
+        props.extend(RGB.map(String::from));
+    }
     if grid.confidence.is_some() {
         props.push("float confidence".into());
     }
+    props.extend(["int grid_col", "int grid_row"].map(String::from));
     let valid: Vec<usize> = (0..grid.valid.len()).filter(|&i| grid.valid[i]).collect();
     let opts = with_sensor(opts, &grid.sensor);
-    let head = header(
-        &opts,
-        &[
-            ("vertex", valid.len(), props),
-            ("range_grid", grid.valid.len(), vec!["list uchar int vertex_indices".into()]),
-        ],
-    );
-    let head = with_size(head, grid.width, grid.height);
+    let head = with_size(header(&opts, &[("vertex", valid.len(), props)]), grid.width, grid.height);
     let mut body = Body { out: head, encoding: opts.encoding, first_on_line: true };
     for &i in &valid {
         write_point(&mut body, t, &grid.points[i], grid.normals.as_ref().map(|n| &n[i]));
+        write_rgb(&mut body, grid.colors.as_ref().map(|c| &c[i]));
         if let Some(c) = &grid.confidence {
             body.value(ScalarType::F32, c[i] as f64);
         }
-        body.end_entry();
-    }
-    let mut next = 0;
-    for &v in &grid.valid {
-        if v {
-            body.value(ScalarType::U8, 1.0);
-            body.value(ScalarType::I32, next as f64);
-            next += 1;
-        } else {
-            body.value(ScalarType::U8, 0.0);
-        }
+        body.value(ScalarType::I32, (i % grid.width) as f64);
+        body.value(ScalarType::I32, (i / grid.width) as f64);
         body.end_entry();
     }
     body.out

@@ -1,4 +1,4 @@
-//! Fuzzing the readers: PLY (header, body and conversions), OBJ, OFF, OpenCV YAML, rig TOML, NumPy
+//! Fuzzing the readers: PLY (header, body and conversions), OBJ, OFF, STL, GLB, E57, OpenCV YAML, rig TOML, NumPy
 //! arrays, PNG frames and the scan manifest must
 //! return `Ok` or a typed error for any bytes — never panic, never allocate past what the input holds.
 //!
@@ -26,6 +26,9 @@ fn read_everything(bytes: &[u8]) {
     }
     let _ = rig::obj::parse(bytes);
     let _ = rig::off::parse(bytes);
+    let _ = rig::stl::parse(bytes);
+    let _ = rig::glb::parse(bytes);
+    let _ = rig::e57::parse(bytes);
     let _ = rig::opencv_yaml::camera_from_bytes(bytes);
     let _ = rig::Rig::from_toml_str(&String::from_utf8_lossy(bytes));
     let _ = rig::npy::parse(bytes);
@@ -38,6 +41,16 @@ fn read_everything(bytes: &[u8]) {
     let text = String::from_utf8_lossy(bytes);
     let _ = rig::scanner_calibration::rig_from_fabscan(&text);
     let _ = rig::scanner_calibration::rig_from_horus(&text);
+}
+
+/// A 2 × 2 range grid with three cells measured.
+fn cloud_grid() -> rig::RangeGrid {
+    let mut g = rig::RangeGrid::empty(2, 2, rig::Sensor::Center(Point3::origin()));
+    for i in 0..3 {
+        g.points[i] = Point3::new(i as f64, 0.0, 100.0);
+        g.valid[i] = true;
+    }
+    g
 }
 
 fn seeds() -> Vec<Vec<u8>> {
@@ -79,6 +92,15 @@ element tristrips 1\nproperty list int int vertex_indices\nend_header\n"
             .chain([4i32, 0, 1, 2, -1].iter().flat_map(|v| v.to_le_bytes()))
             .collect(),
     );
+    let mut coloured = mesh.clone();
+    coloured.colors = Some(vec![[9, 8, 7]; 4]);
+    out.push(rig::stl::mesh_to_binary(&mesh));
+    out.push(rig::stl::mesh_to_ascii(&mesh, "fuzz"));
+    out.push(rig::glb::mesh_to_bytes(&coloured));
+    out.push(rig::glb::cloud_to_bytes(&cloud));
+    out.push(rig::e57::cloud_to_bytes(&cloud).expect("the seed cloud writes"));
+    let grid = rig::RangeGrid { colors: Some(vec![[1, 2, 3]; 4]), ..cloud_grid() };
+    out.push(ply::range_grid_to_bytes(&grid, &WriteOptions::default()));
     out.push(rig::obj::mesh_to_bytes(&mesh));
     out.push(rig::obj::cloud_to_bytes(&cloud));
     out.push(b"# obj\no thing\nv 0 0 0\nv 1 0 0\nv 0 1 0 0.5 0.5 0.5\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1\nf -3//1 -2//1 -1//1\nusemtl x\n".to_vec());
@@ -236,6 +258,9 @@ fn mutated_files_never_panic() {
         let ok = ply::parse(s).is_ok()
             || rig::obj::parse(s).is_ok_and(|o| !o.mesh.vertices.is_empty())
             || rig::off::parse(s).is_ok()
+            || rig::stl::parse(s).is_ok()
+            || rig::glb::parse(s).is_ok()
+            || rig::e57::parse(s).is_ok()
             || rig::opencv_yaml::camera_from_bytes(s).is_ok()
             || rig::Rig::from_toml_str(&String::from_utf8_lossy(s)).is_ok()
             || rig::npy::parse(s).is_ok()

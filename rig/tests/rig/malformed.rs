@@ -419,8 +419,10 @@ fn a_missing_file_names_its_path() {
 
 #[test]
 fn an_unknown_extension_says_what_would_be_understood() {
-    let err = rig::read_mesh(Path::new("scan.stl")).unwrap_err();
-    assert_eq!(err.to_string(), "scan.stl: unrecognised file type; expected .ply, .obj or .off");
+    let err = rig::read_mesh(Path::new("scan.3ds")).unwrap_err();
+    assert_eq!(err.to_string(), "scan.3ds: unrecognised file type; expected .ply, .obj, .off, .stl or .glb");
+    let err = rig::read_mesh(Path::new("scan.e57")).unwrap_err().to_string();
+    assert!(err.contains("an E57 file holds point clouds"), "{err}");
 }
 
 #[test]

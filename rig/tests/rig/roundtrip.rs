@@ -251,7 +251,7 @@ fn a_polygon_of_300_corners_survives_ply() {
     for encoding in [ply::Encoding::Ascii, ply::Encoding::BinaryLittleEndian, ply::Encoding::BinaryBigEndian] {
         let opts = WriteOptions { encoding, precision: Precision::F64, comments: Vec::new() };
         let bytes = ply::mesh_to_bytes(&m, &opts);
-        assert!(String::from_utf8_lossy(&bytes[..200]).contains("list ushort int vertex_indices"));
+        assert!(String::from_utf8_lossy(&bytes[..400]).contains("list ushort int vertex_indices"));
         let back = ply::mesh_from_ply(&ply::parse(&bytes).unwrap()).unwrap();
         assert_eq!(back.face_count(), 2);
         assert_eq!(back.faces().next().unwrap().len(), n);

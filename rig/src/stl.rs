@@ -1,0 +1,143 @@
+//! STL, the file slicers print from: binary (the default, as every slicer and CAD tool writes it) or
+//! ASCII on request; both read back. Reading and binary writing are the `stl_io` crate's (see the
+//! README's list of crates); ASCII writing is the few lines of its text layout below.
+//!
+//! STL holds triangles only, each with its own copy of its corners: polygons are fanned into triangles
+//! on writing, and reading merges corners with identical coordinates back into shared vertices, so a
+//! closed mesh reads back closed.
+
+use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::math::{Point3, Vector3};
+use crate::mesh::{PolyMesh, TriMesh};
+use std::path::Path;
+
+/// A face's unit normal (counter-clockwise seen from outside), zero for a degenerate face as the format
+/// allows.
+fn face_normal(m: &TriMesh, f: &[u32; 3]) -> [f32; 3] {
+    let [a, b, c] = f.map(|i| m.vertices[i as usize]);
+    let n = (b - a).cross(&(c - a)).try_normalize(1e-300).unwrap_or_else(Vector3::zeros);
+    [n.x as f32, n.y as f32, n.z as f32]
+}
+
+/// A mesh as binary STL bytes (80-byte header naming scanrig, then the triangles).
+pub fn mesh_to_binary(mesh: &PolyMesh) -> Vec<u8> {
+    let m = mesh.triangulate();
+    let v = |i: u32| {
+        let p = m.vertices[i as usize];
+        stl_io::Vertex::new([p.x as f32, p.y as f32, p.z as f32])
+    };
+    let triangles: Vec<stl_io::Triangle> = m
+        .faces
+        .iter()
+        .map(|f| stl_io::Triangle { normal: stl_io::Normal::new(face_normal(&m, f)), vertices: f.map(v) })
+        .collect();
+    let mut out = Vec::with_capacity(84 + 50 * triangles.len());
+    // Writing into memory cannot fail.
+    stl_io::write_stl(&mut out, triangles.iter()).unwrap_or_default();
+    let title = format!("binary STL written by scanrig {}", env!("CARGO_PKG_VERSION"));
+    // The header is free text; it must not start with "solid", which readers take for ASCII.
+    out[..title.len().min(80)].copy_from_slice(&title.as_bytes()[..title.len().min(80)]);
+    out
+}
+
+/// A mesh as ASCII STL bytes (`solid … facet normal … outer loop … vertex …`).
+pub fn mesh_to_ascii(mesh: &PolyMesh, name: &str) -> Vec<u8> {
+    use std::fmt::Write;
+    let m = mesh.triangulate();
+    let mut s = format!("solid {name}\n");
+    for f in &m.faces {
+        let n = face_normal(&m, f);
+        let _ = writeln!(s, "  facet normal {:e} {:e} {:e}\n    outer loop", n[0], n[1], n[2]);
+        for &i in f {
+            let p = m.vertices[i as usize];
+            let _ = writeln!(s, "      vertex {:e} {:e} {:e}", p.x as f32, p.y as f32, p.z as f32);
+        }
+        s += "    endloop\n  endfacet\n";
+    }
+    s += &format!("endsolid {name}\n");
+    s.into_bytes()
+}
+
+/// Writes a mesh as STL, binary or ASCII, atomically.
+pub fn write_mesh(path: &Path, mesh: &PolyMesh, ascii: bool) -> Result<(), Error> {
+    let name = path.file_stem().map(|s| s.to_string_lossy().replace(char::is_whitespace, "_"));
+    let bytes = if ascii { mesh_to_ascii(mesh, name.as_deref().unwrap_or("mesh")) } else { mesh_to_binary(mesh) };
+    write_atomic(path, &bytes)
+}
+
+/// Parses STL bytes (binary or ASCII) into a triangle mesh with shared vertices.
+pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
+    let invalid = |m: String| ParseError::new(Location::File, Problem::Invalid(m));
+    // A binary file says how many triangles follow; one whose size disagrees is cut short or padded.
+    let ascii = bytes.trim_ascii_start().starts_with(b"solid")
+        && !(bytes.len() >= 84 && {
+            let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
+            84 + 50 * n == bytes.len() as u64
+        });
+    if !ascii {
+        if bytes.len() < 84 {
+            return Err(ParseError::new(Location::File, Problem::Truncated("the 84-byte binary STL header".into())));
+        }
+        let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
+        if 84 + 50 * n != bytes.len() as u64 {
+            return Err(invalid(format!(
+                "the binary header counts {n} triangles ({} bytes) but the file has {} bytes",
+                84 + 50 * n,
+                bytes.len()
+            )));
+        }
+    }
+    let mut cursor = std::io::Cursor::new(bytes);
+    let stl = stl_io::read_stl(&mut cursor).map_err(|e| invalid(format!("not a readable STL file: {e}")))?;
+    let vertices: Vec<Point3> =
+        stl.vertices.iter().map(|v| Point3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
+    if let Some(i) = vertices.iter().position(|p| !p.coords.iter().all(|c| c.is_finite())) {
+        return Err(ParseError::new(Location::Field(format!("vertex {i}")), Problem::NonFinite("a coordinate".into())));
+    }
+    let faces = stl.faces.iter().map(|f| f.vertices.map(|i| i as u32));
+    Ok(PolyMesh::from_faces(vertices, faces))
+}
+
+/// Reads an STL file (binary or ASCII).
+pub fn read(path: &Path) -> Result<PolyMesh, Error> {
+    parse(&read_bytes(path)?).map_err(|e| e.with_path(path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tetrahedron() -> PolyMesh {
+        let v = [[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [0.0, 10.0, 0.0], [0.0, 0.0, 10.0]].map(Point3::from).to_vec();
+        PolyMesh::from_faces(v, [[0u32, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    }
+
+    #[test]
+    fn binary_and_ascii_round_trip_to_the_same_closed_mesh() {
+        let m = tetrahedron();
+        for bytes in [mesh_to_binary(&m), mesh_to_ascii(&m, "t")] {
+            let back = parse(&bytes).unwrap();
+            assert_eq!(back.vertices.len(), 4, "corners merge back into shared vertices");
+            assert_eq!(back.face_count(), 4);
+            let mut got: Vec<[Point3; 3]> =
+                back.faces().map(|f| [0, 1, 2].map(|k| back.vertices[f[k] as usize])).collect();
+            let mut want: Vec<[Point3; 3]> = m.faces().map(|f| [0, 1, 2].map(|k| m.vertices[f[k] as usize])).collect();
+            let key = |t: &[Point3; 3]| format!("{t:?}");
+            got.sort_by_key(key);
+            want.sort_by_key(key);
+            assert_eq!(got, want);
+            assert!((back.triangulate().signed_volume() - m.triangulate().signed_volume()).abs() < 1e-9);
+        }
+        assert!(!mesh_to_binary(&m).starts_with(b"solid"), "a binary header must not look like ASCII");
+    }
+
+    #[test]
+    fn truncated_and_garbage_files_are_refused() {
+        let b = mesh_to_binary(&tetrahedron());
+        let e = parse(&b[..b.len() - 7]).unwrap_err().to_string();
+        assert!(e.contains("counts 4 triangles"), "{e}");
+        assert!(parse(&b[..50]).unwrap_err().to_string().contains("84-byte"));
+        let e = parse(b"solid x\n  facet normal 0 0 1\n    outer loop\n      vertex 1 2\n").unwrap_err().to_string();
+        assert!(e.contains("not a readable STL"), "{e}");
+    }
+}
