@@ -80,14 +80,14 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             f.points_removed
         )?;
     }
-    if let Some(r) = report.reconstruct.as_ref().map(|s| &s.report) {
+    if let Some(r) = report.reconstruct.as_ref().map(|s| &s.report.reconstruct) {
         let mesh = rig::read_mesh(&processed.join("mesh.ply"))?.triangulate();
         let t = rig::topology::topology(&mesh);
         writeln!(
             text,
             "  watertight mesh    {}  ({} triangles, {}³ FFT grid, cell {:.2} mm; {})",
             processed.join("mesh.ply").display(),
-            r.triangles(),
+            mesh.faces.len(),
             r.n(),
             r.cell(),
             match t.genus() {

@@ -21,6 +21,7 @@ pub fn params(args: &ProcessArgs) -> Result<ProcessParams> {
         fuse: args.fuse.params()?,
         close: if args.no_close { None } else { defaults.close },
         reconstruct: args.reconstruct.params()?,
+        finish: args.reconstruct.finish()?.0,
         remesh: args.remesh.params()?,
         ..defaults
     })
@@ -146,8 +147,28 @@ pub fn print_summary(o: &mut impl Write, out: &Path, report: &ProcessReport) -> 
         writeln!(o, "  closed: {caps} ({})", status(s))?;
     }
     if let Some(s) = &report.reconstruct {
-        let r = &s.report;
+        let r = &s.report.reconstruct;
         writeln!(o, "  mesh: {} triangles, {}³ grid (cell {:.3} mm) ({})", r.triangles(), r.n(), r.cell(), status(s))?;
+        if let Some(b) = &s.report.finish.base {
+            let how = match b.base {
+                process::pipeline::stages::Base::Flat => {
+                    format!("flat, {} cap triangles, {:.0} mm²", b.cap_triangles, b.cap_area)
+                }
+                _ => format!("{:?}", b.base).to_lowercase(),
+            };
+            let closed = if b.closed { "closed" } else { "open" };
+            writeln!(o, "  base: cut at z = {} ({how}; {} triangles below removed; mesh {closed})", b.z, b.removed)?;
+        }
+        if let Some(t) = &s.report.finish.trim {
+            writeln!(
+                o,
+                "  trim: {} triangles farther than {} mm from the data removed, {} holes{}",
+                t.removed,
+                t.max_distance,
+                t.holes,
+                if t.fill_triangles > 0 { " (filled)" } else { "" }
+            )?;
+        }
     }
     if let Some(s) = &report.remesh {
         let q = &s.report.quality;

@@ -29,20 +29,50 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
         cloud = closed;
     }
     let opts = crate::outputs::write_options_like(&args.input)?;
+    // The platter plane is known for a cloud in a turntable scan's object frame: its header says so
+    // (`process` writes that), or --close says it is.
+    let in_frame = opts.comments.iter().any(|c| c == rig::ply::TURNTABLE_FRAME) || args.close;
+    let (finish, base_named) = args.reconstruct.finish()?;
+    if base_named && finish.base != stages::Base::Closed && !in_frame {
+        anyhow::bail!(
+            "--base {:?} cuts at the platter plane, but {} does not say it is in a turntable scan's object frame              (z up, the platter at z = 0): give --close if it is",
+            finish.base,
+            args.input.display()
+        );
+    }
     let start = std::time::Instant::now();
     let context = || format!("reconstructing {}", args.input.display());
     let (mesh, report) = stages::reconstruct(&cloud, &params).with_context(context)?;
+    let (mesh, finished) =
+        stages::finish(mesh, &cloud, &finish, in_frame.then_some(0.0), report.cell()).with_context(context)?;
+    if let Some(b) = finished.base {
+        eprintln!(
+            "base: cut at z = {} ({:?}; {} triangles below removed, {} in the cap; mesh {})",
+            b.z,
+            b.base,
+            b.removed,
+            b.cap_triangles,
+            if b.closed { "closed" } else { "open" }
+        );
+    }
+    if let Some(t) = finished.trim {
+        eprintln!(
+            "trim: {} triangles farther than {} from the cloud removed, {} holes",
+            t.removed, t.max_distance, t.holes
+        );
+    }
     if let Some(w) = stages::check_support(&mesh, &cloud, args.force).with_context(context)? {
         eprintln!("warning: {w}");
     }
     let seconds = start.elapsed().as_secs_f64();
-    rig::write_mesh(&args.out, &stages::mesh_for_output(&mesh), &opts)?;
+    rig::write_mesh(&args.out, &stages::mesh_for_output(&mesh, stages::mesh_colours(&mesh, &cloud)), &opts)?;
     let t = topology(&mesh);
     let peak = rig::memory::peak_resident_bytes();
     let mut o = std::io::stdout().lock();
     if args.json {
         let json = serde_json::json!({
             "report": report,
+            "finish": finished,
             "topology": t,
             "genus": t.genus(),
             "seconds": seconds,

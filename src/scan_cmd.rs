@@ -44,6 +44,10 @@ impl Camera for SimCamera<'_> {
                 None => Pattern::LaserOff,
             },
         };
+        // Dark, with the work light on: the texture shot (the work light is not under the session's
+        // control, so the shot says it).
+        let showing =
+            if shot.pattern == Pattern::Texture && showing == Pattern::LaserOff { Pattern::Texture } else { showing };
         let k = self.program.iter().position(|&p| p == showing).ok_or_else(|| {
             CameraError::Frame(format!("the simulated rig cannot show {showing:?} (not in its capture program)"))
         })?;
@@ -96,6 +100,9 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
         None if !rig.lasers.is_empty() => (Method::Laser, rig::patterns::laser_sequence(rig.lasers.len())),
         None => bail!("the rig has neither a projector nor lasers: nothing to scan with"),
     };
+    // Each view's colour: a texture frame under the work light, as the simulator's config asks.
+    let program: Vec<rig::Pattern> =
+        program.into_iter().chain(cfg.scan.texture.then_some(rig::Pattern::Texture)).collect();
     let mut plan = acquire::Plan::full_turn(method, program.clone(), cfg.scan.views as usize);
     plan.seed = Some(args.world.seed);
     plan.settle = Duration::from_millis(args.settle_ms);

@@ -7,7 +7,7 @@ use anyhow::{Result, bail};
 use clap::Args;
 use process::DecodeParams;
 use process::denoise::{DenoiseParams, Direction, Similarity};
-use process::pipeline::stages::{DenoiseStage, FuseParams, ReconstructParams};
+use process::pipeline::stages::{Base, DenoiseStage, FinishParams, FuseParams, ReconstructParams};
 use process::placement::CropParams;
 use process::reconstruct::adfft::AdFftParams;
 use process::reconstruct::global_fft::FftParams;
@@ -204,9 +204,49 @@ pub struct ReconstructOpts {
     /// smooths noise and small detail away.
     #[arg(long)]
     pub smoothing_cells: Option<f64>,
+    /// The base of an object standing on the platter, never seen: `flat` cuts the mesh at the platter
+    /// plane (object z = 0) and caps it flat, closed, to print and stand on (the default on a turntable
+    /// scan); `open` cuts it and leaves the base open; `closed` keeps the surface the reconstruction
+    /// closed it with.
+    #[arg(long, value_enum)]
+    pub base: Option<BaseArg>,
+    /// Remove surface farther than this from every point of the cloud (its units, mm): the parts the
+    /// reconstruction made up where no sensor looked. The mesh stays manifold; off by default.
+    #[arg(long, value_name = "MM")]
+    pub trim: Option<f64>,
+    /// With --trim: close each hole it leaves by a fan from its centre, so the mesh stays closed.
+    #[arg(long, requires = "trim")]
+    pub trim_fill: bool,
+}
+
+/// The base of an object on the platter.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BaseArg {
+    /// Cut at the platter plane and cap flat.
+    Flat,
+    /// Cut at the platter plane, open.
+    Open,
+    /// As reconstructed.
+    Closed,
 }
 
 impl ReconstructOpts {
+    /// The base and trim, and whether the base was asked for by name (it needs a known platter).
+    pub fn finish(&self) -> Result<(FinishParams, bool)> {
+        if let Some(t) = self.trim
+            && !(t > 0.0 && t.is_finite())
+        {
+            bail!("--trim must be a positive distance (mm), got {t}");
+        }
+        let base = match self.base {
+            None => FinishParams::default().base,
+            Some(BaseArg::Flat) => Base::Flat,
+            Some(BaseArg::Open) => Base::Open,
+            Some(BaseArg::Closed) => Base::Closed,
+        };
+        Ok((FinishParams { base, trim: self.trim, trim_fill: self.trim_fill }, self.base.is_some()))
+    }
+
     pub fn params(&self) -> Result<ReconstructParams> {
         if !(self.memory_budget > 0.0 && self.memory_budget.is_finite()) {
             bail!("--memory-budget must be a positive number of GB, got {}", self.memory_budget);

@@ -74,12 +74,14 @@ impl Camera for FolderCamera {
         self.size
     }
 
-    fn capture(&mut self, _shot: &Shot) -> Result<Image8, CameraError> {
+    fn capture(&mut self, shot: &Shot) -> Result<Image8, CameraError> {
         let path = self.files.get(self.next).ok_or_else(|| {
             CameraError::Frame(format!("the replay folder ran out of images after {}", self.files.len()))
         })?;
         self.next += 1;
-        let img = rig::image::read_image(path)?.to_gray();
+        // Pattern frames are decoded as grey; the texture shot is the view's colour.
+        let img = rig::image::read_image(path)?;
+        let img = if shot.pattern == rig::Pattern::Texture { img } else { img.to_gray() };
         if (img.width, img.height) != self.size {
             return Err(CameraError::Frame(format!(
                 "{} is {}x{}, the replay's first image {}x{}",

@@ -230,12 +230,13 @@ pub fn run(
                 total,
                 error: Box::new(e),
             };
-            if matches!(frame.pattern, Pattern::LaserOff | Pattern::Laser { .. }) {
-                // Laser frames are taken with the projector dark.
+            if matches!(frame.pattern, Pattern::LaserOff | Pattern::Laser { .. } | Pattern::Texture) {
+                // Laser and texture frames are taken with the projector dark (the texture under the
+                // work light, every laser off).
                 projector.show(None).map_err(|e| cam_err(&manifest, e))?;
             }
             let img = match frame.pattern {
-                Pattern::LaserOff => camera.capture(&shot),
+                Pattern::LaserOff | Pattern::Texture => camera.capture(&shot),
                 Pattern::Laser { index } => {
                     turntable.laser(index, true).map_err(|e| tt_err(v, &manifest, e))?;
                     let img = camera.capture(&shot);

@@ -3,6 +3,11 @@
 //! (defaults `laser 1,2,3 36`). Prints, per seed, the mesh's vertices against the true surface
 //! (median and 95th percentile, above the platter's top 3 mm, as issue 20's tests measure) and the
 //! true surface against the mesh (its vertices, the same percentiles), as % of the object's diagonal.
+//!
+//! `-- --folder SCAN` measures a scan folder `scanrig sim` (or `demo`) wrote and `process` processed,
+//! any method: the same figures, the RMS above the bottom 3 mm, and the base — whether the mesh is
+//! closed, how far its lowest vertices lie from the platter plane (z = 0), and the largest error in
+//! the bottom 3 mm (issue 22's flat base).
 
 use process::mesh_distance::MeshDistance;
 use process::{ProcessParams, process_scan};
@@ -43,6 +48,33 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             a[1],
             a[2],
             a[3]
+        );
+        let index = MeshDistance::new(&truth, 2.0);
+        let (mut sum, mut n, mut worst_low) = (0.0, 0usize, 0.0f64);
+        for v in &mesh.vertices {
+            let d = index.distance_up_to(v, 50.0);
+            if v.z > 3.0 {
+                sum += d * d;
+                n += 1;
+            } else {
+                worst_low = worst_low.max(d);
+            }
+        }
+        let low = mesh.vertices.iter().map(|v| v.z).fold(Real::INFINITY, Real::min);
+        // The base: vertices within 0.5 mm of the platter plane, and how far from it they lie.
+        let base_off = mesh.vertices.iter().filter(|v| v.z < 0.5).map(|v| v.z.abs()).fold(0.0, Real::max);
+        let t = rig::topology::topology(&mesh);
+        println!(
+            "  above 3 mm: RMS {:.4} % of the diagonal ({:.4} mm); bottom 3 mm: largest error {:.3} mm; lowest vertex              z = {:.4} mm, base vertices within {:.4} mm of z = 0; {}",
+            100.0 * (sum / n.max(1) as Real).sqrt() / diag,
+            (sum / n.max(1) as Real).sqrt(),
+            worst_low,
+            low,
+            base_off,
+            match t.genus() {
+                Some(g) => format!("closed 2-manifold, genus {g}"),
+                None => format!("NOT closed: {t:?}"),
+            }
         );
         return Ok(());
     }

@@ -57,6 +57,9 @@ pub enum Pattern {
         /// Index into the rig's lasers.
         index: usize,
     },
+    /// The view's colour: a colour frame under the work light, projector dark and lasers off, so every
+    /// view sees the object under the same light (the texture scan Horus and FabScanPi take).
+    Texture,
 }
 
 /// The binary-reflected Gray code of `n`.
@@ -83,7 +86,7 @@ impl Pattern {
     pub fn pixel_value(&self, col: u32, row: u32) -> f64 {
         match *self {
             Pattern::White => 1.0,
-            Pattern::Black | Pattern::LaserOff | Pattern::Laser { .. } => 0.0,
+            Pattern::Black | Pattern::LaserOff | Pattern::Laser { .. } | Pattern::Texture => 0.0,
             Pattern::Gray { axis, bit, bits, inverse } => {
                 let c = if axis == Axis::Columns { col } else { row };
                 let on = (gray(c) >> (bits - 1 - bit)) & 1 == 1;
@@ -119,6 +122,7 @@ impl Pattern {
             }
             Pattern::LaserOff => "laser_off".into(),
             Pattern::Laser { index } => format!("laser{index}"),
+            Pattern::Texture => "texture".into(),
         }
     }
 }

@@ -25,6 +25,8 @@ pub struct SparseView {
     pub pixels: Vec<[f32; 2]>,
     /// Per point, its confidence (larger is more trusted; a laser line's peak over 255).
     pub confidence: Vec<f32>,
+    /// Per point, its 8-bit RGB colour (the view's texture frame), where there is one.
+    pub colors: Option<Vec<[u8; 3]>>,
     /// The sensor that measured the view.
     pub sensor: Sensor,
 }
@@ -32,7 +34,15 @@ pub struct SparseView {
 impl SparseView {
     /// A view of `width × height` pixels with no points.
     pub fn empty(width: usize, height: usize, sensor: Sensor) -> Self {
-        SparseView { width, height, points: Vec::new(), pixels: Vec::new(), confidence: Vec::new(), sensor }
+        SparseView {
+            width,
+            height,
+            points: Vec::new(),
+            pixels: Vec::new(),
+            confidence: Vec::new(),
+            colors: None,
+            sensor,
+        }
     }
 
     /// Adds a point seen at pixel `[column, row]`.
@@ -76,6 +86,17 @@ impl SparseView {
             }
         }
         grid.confidence = Some(conf);
+        if let Some(colors) = &self.colors {
+            let mut rgb = vec![[0u8; 3]; self.width * self.height];
+            for (px, c) in self.pixels.iter().zip(colors) {
+                let col = (px[0].round().max(0.0) as usize).min(self.width.saturating_sub(1));
+                let row = (px[1].round().max(0.0) as usize).min(self.height.saturating_sub(1));
+                if let Some(slot) = rgb.get_mut(row * self.width + col) {
+                    *slot = *c;
+                }
+            }
+            grid.colors = Some(rgb);
+        }
         grid
     }
 }

@@ -113,6 +113,9 @@ pub struct SceneConfig {
     pub specular: Real,
     /// Specular exponent (higher: smaller, sharper highlights).
     pub shininess: Real,
+    /// The object's procedural colour (bands of hue, [`crate::colour::tint`]) in texture frames; false
+    /// leaves it grey.
+    pub object_colour: bool,
 }
 
 impl Default for SceneConfig {
@@ -128,6 +131,7 @@ impl Default for SceneConfig {
             wall_albedo: 0.7,
             specular: 0.0,
             shininess: 40.0,
+            object_colour: true,
         }
     }
 }
@@ -173,12 +177,14 @@ pub struct ScanConfig {
     pub views: u32,
     /// Phase-shift sets after the Gray code (structured light only).
     pub phase: Vec<PhaseShift>,
+    /// A colour texture frame per view (work light on, projector and lasers off): each point's colour.
+    pub texture: bool,
 }
 
 impl Default for ScanConfig {
     fn default() -> Self {
         let p = |axis| PhaseShift { axis, period_px: 16.0, steps: 4 };
-        ScanConfig { views: 36, phase: vec![p(rig::Axis::Columns), p(rig::Axis::Rows)] }
+        ScanConfig { views: 36, phase: vec![p(rig::Axis::Columns), p(rig::Axis::Rows)], texture: true }
     }
 }
 

@@ -38,6 +38,9 @@ pub struct ViewGeometry {
     pub normal: Vec<Vector3>,
     /// Albedo at the hit.
     pub albedo: Vec<f32>,
+    /// The object's colour tint at the hit ([`crate::colour::tint`]); white elsewhere, and everywhere
+    /// when the config's object has no colour.
+    pub tint: Vec<[f32; 3]>,
     /// Projector pixel coordinates of the hit where the projector lights it; NaN otherwise.
     pub projector: Vec<Point2>,
     /// cos(angle between normal and the direction to the projector) where lit, else 0.
@@ -65,12 +68,21 @@ pub fn view_geometry(scene: &Scene, cfg: &SimConfig, rays: &[Vector3], camera_fr
         point: Vec::with_capacity(w * h),
         normal: Vec::with_capacity(w * h),
         albedo: Vec::with_capacity(w * h),
+        tint: Vec::with_capacity(w * h),
         projector: Vec::with_capacity(w * h),
         projector_cos: Vec::with_capacity(w * h),
         laser_distance: vec![Vec::with_capacity(w * h); nl],
         laser_cos: vec![Vec::with_capacity(w * h); nl],
     };
+    let object_from_camera = camera_from_object.inverse();
+    let object = crate::scene::PartKind::Object as u8;
     for p in per_pixel {
+        let tint = if cfg.scene.object_colour && p.kind == object {
+            crate::colour::tint(&(object_from_camera * p.point)).map(|t| t as f32)
+        } else {
+            [1.0; 3]
+        };
+        g.tint.push(tint);
         g.kind.push(p.kind);
         g.point.push(p.point);
         g.normal.push(p.normal);

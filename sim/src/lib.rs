@@ -33,6 +33,7 @@
 
 pub mod board;
 pub mod bvh;
+pub mod colour;
 pub mod config;
 pub mod geometry;
 pub mod light;

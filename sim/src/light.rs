@@ -95,7 +95,8 @@ impl PatternLight {
         let x = match self.pattern {
             Pattern::White => return self.white,
             Pattern::Black => return self.black,
-            Pattern::LaserOff | Pattern::Laser { .. } => return 0.0,
+            // The texture frame is taken with the projector off.
+            Pattern::LaserOff | Pattern::Laser { .. } | Pattern::Texture => return 0.0,
             Pattern::Gray { axis, .. } | Pattern::Phase { axis, .. } => {
                 if axis == Axis::Columns {
                     u

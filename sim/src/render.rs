@@ -46,6 +46,8 @@ fn radiance(g: &ViewGeometry, cfg: &SimConfig, light: &PatternLight, i: usize) -
     let mut laser = 0.0;
     match light.pattern() {
         Pattern::LaserOff => {}
+        // The same diffuse light from every view: the colour of a point does not depend on the view.
+        Pattern::Texture => e += cfg.scene.work_light,
         // A lit frame on a rig without a projector: the work light is on.
         Pattern::White if cfg.rig.projector.is_none() => e += cfg.scene.work_light,
         Pattern::Laser { index } => {
@@ -126,7 +128,8 @@ pub fn render_frame(g: &ViewGeometry, cfg: &SimConfig, light: &PatternLight, key
         };
         dn.round().clamp(0.0, 255.0) as u8
     };
-    if !fr.colour && fr.blur_px == 0.0 {
+    let texture = light.pattern() == Pattern::Texture;
+    if !fr.colour && fr.blur_px == 0.0 && !texture {
         // The clean default, pixel by pixel as it always was (its figures depend on it).
         let data: Vec<u8> = (0..n)
             .into_par_iter()
@@ -138,7 +141,12 @@ pub fn render_frame(g: &ViewGeometry, cfg: &SimConfig, light: &PatternLight, key
         return Image8::gray(g.width as u32, g.height as u32, data);
     }
     let parts: Vec<(Real, Real)> = (0..n).into_par_iter().map(|i| radiance(g, cfg, light, i)).collect();
-    let channels: Vec<Vec<f32>> = if fr.colour {
+    let channels: Vec<Vec<f32>> = if texture {
+        // Always colour, with the object's tint: the view's texture.
+        (0..3)
+            .map(|c| parts.iter().zip(&g.tint).map(|(&(wt, _), t)| (wt * fr.light_rgb[c]) as f32 * t[c]).collect())
+            .collect()
+    } else if fr.colour {
         (0..3)
             .map(|c| parts.iter().map(|&(wt, l)| (wt * fr.light_rgb[c] + l * fr.laser_rgb[c]) as f32).collect())
             .collect()

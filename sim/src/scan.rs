@@ -74,6 +74,9 @@ pub fn program(cfg: &SimConfig, method: Method) -> Result<Vec<Pattern>, Error> {
     } else if method == Method::Laser {
         return Err(Error::Setup("a laser scan needs a rig with [[lasers]]".into()));
     }
+    if cfg.scan.texture && method != Method::Board {
+        seq.push(Pattern::Texture);
+    }
     Ok(seq)
 }
 

@@ -202,7 +202,7 @@ fn shadows_of_a_box_are_dark_in_every_pattern_frame() {
                 for (f, img) in frames.iter().enumerate() {
                     let mine = match m.views[0].frames[f].pattern {
                         Pattern::Laser { index } => index == k,
-                        Pattern::LaserOff => false,
+                        Pattern::LaserOff | Pattern::Texture => false,
                         _ => method == Method::StructuredLight,
                     };
                     if mine {

@@ -144,7 +144,8 @@ fn sim_writes_a_scan_folder_and_resumes_it() {
     assert_eq!((report["views"].as_u64(), report["views_rendered"].as_u64()), (Some(2), Some(2)));
     let m = rig::Manifest::read(&out).unwrap();
     assert_eq!(m.views.len(), 2);
-    assert!(m.views.iter().all(|v| v.complete && v.frames.len() == 50));
+    // 50 pattern frames and the colour texture.
+    assert!(m.views.iter().all(|v| v.complete && v.frames.len() == 51));
     for f in &m.views[1].frames {
         let img = rig::image::read_png(&out.join(&f.file)).unwrap();
         assert_eq!((img.width, img.height), (160, 128));
@@ -180,7 +181,7 @@ fn sim_scans_a_mesh_file_with_the_laser_rig() {
     assert!(o.status.success(), "{}", stderr(&o));
     let m = rig::Manifest::read(&out).unwrap();
     assert_eq!(m.method, rig::Method::Laser);
-    assert_eq!(m.views[0].frames.len(), 3, "laser off, then each of the two lasers");
+    assert_eq!(m.views[0].frames.len(), 4, "laser off, each of the two lasers, the colour texture");
 }
 
 #[test]

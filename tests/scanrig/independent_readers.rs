@@ -1,9 +1,9 @@
-//! Issue 22: the files scanrig writes open in a reader that is not scanrig's — trimesh, from the Python
-//! package index — with the counts scanrig says they hold, and a quad mesh stays manifold when that
-//! reader splits its polygons into triangles.
+//! Issue 22: the files scanrig writes open in readers that are not scanrig's — trimesh, and pye57
+//! (libE57Format) for E57, from the Python package index — with the counts scanrig says they hold, and a
+//! quad mesh stays manifold when that reader splits its polygons into triangles.
 //!
-//! Needs `python3` with trimesh (`.ci/run` installs it and sets `SCANRIG_REQUIRE_READERS=1`, so there a
-//! missing reader fails the test; elsewhere the test says it skipped).
+//! Needs `python3` with trimesh and pye57 (`.ci/run` installs them and sets `SCANRIG_REQUIRE_READERS=1`,
+//! so there a missing reader fails the test; elsewhere the test says it skipped).
 
 use crate::run::scanrig;
 use std::path::{Path, PathBuf};
@@ -15,7 +15,7 @@ fn script() -> PathBuf {
 
 /// trimesh's description of each file, or None (said) when no trimesh is at hand and none is required.
 fn trimesh_describes(files: &[PathBuf]) -> Option<serde_json::Value> {
-    let probe = Command::new("python3").args(["-c", "import trimesh"]).output();
+    let probe = Command::new("python3").args(["-c", "import trimesh, pye57"]).output();
     if !probe.as_ref().is_ok_and(|o| o.status.success()) {
         let why = match &probe {
             Ok(o) => String::from_utf8_lossy(&o.stderr).trim().to_string(),
@@ -23,9 +23,11 @@ fn trimesh_describes(files: &[PathBuf]) -> Option<serde_json::Value> {
         };
         assert!(
             std::env::var_os("SCANRIG_REQUIRE_READERS").is_none(),
-            "SCANRIG_REQUIRE_READERS is set but python3 cannot import trimesh: {why}"
+            "SCANRIG_REQUIRE_READERS is set but python3 cannot import trimesh and pye57: {why}"
         );
-        eprintln!("SKIPPED independent_readers: python3 with trimesh is not available ({why}); `.ci/run` installs it");
+        eprintln!(
+            "SKIPPED independent_readers: python3 with trimesh and pye57 is not available ({why}); `.ci/run` installs them"
+        );
         return None;
     }
     let o = Command::new("python3").arg(script()).args(files).output().unwrap();
@@ -45,13 +47,14 @@ fn trimesh_opens_every_file_with_scanrig_s_counts_and_quads_stay_manifold() {
     let x = |n: &str| d.path().join(n);
     // The formats only `convert` writes, from the pipeline's own files.
     ok(scanrig(&[&"convert", &p.join("fused.ply"), &x("fused.glb")]));
+    ok(scanrig(&[&"convert", &p.join("fused.ply"), &x("fused.e57")]));
     ok(scanrig(&[&"convert", &p.join("mesh.ply"), &x("mesh_ascii.stl"), &"--ascii"]));
     ok(scanrig(&[&"convert", &p.join("quads.obj"), &x("quads.glb")]));
     ok(scanrig(&[&"convert", &p.join("quads.obj"), &x("quads_ascii.ply"), &"--ascii"]));
     let clouds = ["views/view_000.ply", "denoised/view_000.ply", "merged.ply", "registered.ply", "fused.ply"]
         .map(|n| p.join(n))
         .into_iter()
-        .chain([x("fused.glb")]);
+        .chain([x("fused.glb"), x("fused.e57")]);
     let meshes = ["mesh.ply", "mesh.stl", "mesh.glb", "quads.obj", "quads.ply"].map(|n| p.join(n)).into_iter().chain([
         x("mesh_ascii.stl"),
         x("quads.glb"),
@@ -71,6 +74,10 @@ fn trimesh_opens_every_file_with_scanrig_s_counts_and_quads_stay_manifold() {
         };
         assert_eq!(t["vertices"], ours, "{}: {t}", f.display());
         assert_eq!(t["finite"], true, "{}", f.display());
+        // Colour where scanrig wrote it (every cloud of the simulated demo has it; E57 keeps it too).
+        if rig::read_cloud(f).is_ok_and(|c| c.colors.is_some()) {
+            assert_eq!(t["colored"], true, "{}: {t}", f.display());
+        }
     }
     let input = rig::read_mesh(&p.join("mesh.ply")).unwrap().triangulate();
     let euler = about(&p.join("mesh.ply"))["euler"].clone();

@@ -2,6 +2,7 @@
 //! instead of one per file): each module is one former test file.
 
 mod bad_input;
+mod bases;
 mod cli;
 mod data_files;
 mod independent_readers;

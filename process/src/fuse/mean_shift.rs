@@ -199,7 +199,7 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
 
     let t = std::time::Instant::now();
     // Eqs. 3.8–3.10 for every sample independently.
-    let moved: Vec<(Point3, usize, usize, Real)> = (0..cloud.len())
+    let moved: Vec<(Point3, usize, usize, Real, [Real; 3])> = (0..cloud.len())
         .into_par_iter()
         .map(|i| {
             let mut p = cloud.positions[i];
@@ -211,6 +211,22 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
             // The support at the sample's own position: eq. 3.7's adaptive step would carry even an
             // unsupported outlier onto the surface in one step, so support is judged before moving.
             let mut support = None;
+            // The sample's colour: the kernels' colours under the weights of its last step, so colour is
+            // averaged exactly as position is (eq. 3.8's φ).
+            let colour_at = |p: &Point3| -> [Real; 3] {
+                let Some(colors) = &cloud.colors else { return [0.0; 3] };
+                let (mut sum, mut den) = ([0.0; 3], 0.0);
+                for &j in &near {
+                    let k = &kernels[j];
+                    let y = p - k.centre;
+                    let phi = weight(j) * (-0.5 * y.dot(&(k.inv * y))).exp();
+                    for c in 0..3 {
+                        sum[c] += phi * colors[j][c] as Real;
+                    }
+                    den += phi;
+                }
+                if den < 1e-300 { colors[i].map(|v| v as Real) } else { sum.map(|s| s / den) }
+            };
             for it in 0..params.max_iterations {
                 let mut m = Vector3::zeros();
                 let mut den = 0.0;
@@ -225,15 +241,15 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
                 }
                 let s0 = *support.get_or_insert(pdf);
                 if den < 1e-300 {
-                    return (p, it, nearest, s0);
+                    return (p, it, nearest, s0, colour_at(&p));
                 }
                 let step = m / den;
                 p -= step;
                 if step.norm() < 1e-4 * h {
-                    return (p, it + 1, nearest, s0);
+                    return (p, it + 1, nearest, s0, colour_at(&p));
                 }
             }
-            (p, params.max_iterations, nearest, support.unwrap_or(0.0))
+            (p, params.max_iterations, nearest, support.unwrap_or(0.0), colour_at(&p))
         })
         .collect();
     report.mean_iterations = moved.iter().map(|m| m.1 as Real).sum::<Real>() / moved.len() as Real;
@@ -271,17 +287,22 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
     }
     let mut index: HashMap<usize, usize> = HashMap::new();
     let mut sums: Vec<(Vector3, usize, usize)> = Vec::new();
+    let mut colour_sums: Vec<[Real; 3]> = Vec::new();
     // Per input sample, its cluster (None for strays).
     let mut cluster_of = vec![None; moved.len()];
     for (m, &i) in members.iter().enumerate() {
-        let (p, _, nearest, _) = moved[i];
+        let (p, _, nearest, _, colour) = moved[i];
         let r = sets.find(m);
         let c = *index.entry(r).or_insert_with(|| {
             sums.push((Vector3::zeros(), 0, nearest));
+            colour_sums.push([0.0; 3]);
             sums.len() - 1
         });
         sums[c].0 += p.coords;
         sums[c].1 += 1;
+        for k in 0..3 {
+            colour_sums[c][k] += colour[k];
+        }
         cluster_of[i] = Some(c);
     }
     let reps: Vec<(Point3, usize)> = sums.iter().map(|(s, n, near)| (Point3::from(s / *n as Real), *near)).collect();
@@ -307,11 +328,19 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
     } else {
         vec![true; reps.len()]
     };
-    let mut out = PointCloud { normals: Some(Vec::new()), ..Default::default() };
+    let mut out = PointCloud {
+        normals: Some(Vec::new()),
+        colors: cloud.colors.as_ref().map(|_| Vec::new()),
+        ..Default::default()
+    };
     for (r, (p, near)) in reps.iter().enumerate() {
         if !keep[r] {
             report.outliers_removed += 1;
             continue;
+        }
+        if let Some(colors) = out.colors.as_mut() {
+            let n = sums[r].1 as Real;
+            colors.push(colour_sums[r].map(|s| (s / n).round().clamp(0.0, 255.0) as u8));
         }
         let mut n = kernels[*near].normal;
         if let Some(input) = &cloud.normals

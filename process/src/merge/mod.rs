@@ -36,6 +36,7 @@ impl CropParams {
 pub fn place_view(grid: &RangeGrid, object_from_camera: &Isometry3, crop: &CropParams, view_id: u32) -> PointCloud {
     let mut out = PointCloud {
         normals: grid.normals.as_ref().map(|_| Vec::new()),
+        colors: grid.colors.as_ref().map(|_| Vec::new()),
         confidence: Some(Vec::new()),
         view_id: Some(Vec::new()),
         ..Default::default()
@@ -46,6 +47,9 @@ pub fn place_view(grid: &RangeGrid, object_from_camera: &Isometry3, crop: &CropP
             continue;
         }
         out.positions.push(p);
+        if let (Some(dst), Some(src)) = (out.colors.as_mut(), grid.colors.as_ref()) {
+            dst.push(src[i]);
+        }
         if let (Some(dst), Some(src)) = (out.normals.as_mut(), grid.normals.as_ref()) {
             dst.push(object_from_camera.rotation * src[i]);
         }
@@ -58,11 +62,19 @@ pub fn place_view(grid: &RangeGrid, object_from_camera: &Isometry3, crop: &CropP
 /// A sparse view's points in the object frame, cropped, with confidence and the view id (no normals:
 /// a line has none of its own; merging gives them).
 pub fn place_sparse(view: &SparseView, object_from_camera: &Isometry3, crop: &CropParams, view_id: u32) -> PointCloud {
-    let mut out = PointCloud { confidence: Some(Vec::new()), view_id: Some(Vec::new()), ..Default::default() };
-    for (p, &c) in view.points.iter().zip(&view.confidence) {
+    let mut out = PointCloud {
+        confidence: Some(Vec::new()),
+        view_id: Some(Vec::new()),
+        colors: view.colors.as_ref().map(|_| Vec::new()),
+        ..Default::default()
+    };
+    for (i, (p, &c)) in view.points.iter().zip(&view.confidence).enumerate() {
         let p = object_from_camera * p;
         if crop.keeps(p.x, p.y, p.z) {
             out.positions.push(p);
+            if let (Some(dst), Some(src)) = (out.colors.as_mut(), view.colors.as_ref()) {
+                dst.push(src[i]);
+            }
             out.confidence.as_mut().unwrap().push(c);
             out.view_id.as_mut().unwrap().push(view_id);
         }
@@ -73,8 +85,11 @@ pub fn place_sparse(view: &SparseView, object_from_camera: &Isometry3, crop: &Cr
 /// All views in one cloud (normals only if every view has them).
 pub fn merge(views: Vec<PointCloud>) -> PointCloud {
     let all_normals = views.iter().all(|v| v.normals.is_some());
+    // Colour only if every view has it: a cloud half coloured would read as black elsewhere.
+    let all_colours = !views.is_empty() && views.iter().all(|v| v.colors.is_some());
     let mut out = PointCloud {
         normals: all_normals.then(Vec::new),
+        colors: all_colours.then(Vec::new),
         confidence: Some(Vec::new()),
         view_id: Some(Vec::new()),
         ..Default::default()
@@ -82,6 +97,9 @@ pub fn merge(views: Vec<PointCloud>) -> PointCloud {
     for v in views {
         let n = v.len();
         out.positions.extend(v.positions);
+        if let (Some(dst), Some(src)) = (out.colors.as_mut(), v.colors) {
+            dst.extend(src);
+        }
         if let Some(dst) = out.normals.as_mut() {
             dst.extend(v.normals.unwrap_or_else(|| vec![Vector3::zeros(); n]));
         }

@@ -27,7 +27,7 @@ use crate::structured_light::DecodeParams;
 use crate::triangulate::TriangulateParams;
 use rig::math::Real;
 use serde::{Deserialize, Serialize};
-use stages::{DenoiseStage, FuseParams, ReconstructParams};
+use stages::{DenoiseStage, FinishParams, FuseParams, ReconstructParams};
 
 /// The stages, in order; `--until` stops after one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
@@ -115,6 +115,8 @@ pub struct ProcessParams {
     pub close: Option<CloseParams>,
     /// Reconstruction.
     pub reconstruct: ReconstructParams,
+    /// The mesh's base (cut at the platter) and trim, before it is written.
+    pub finish: FinishParams,
     /// Quad remeshing.
     pub remesh: RemeshParams,
     /// The last stage to run.
@@ -139,6 +141,7 @@ impl Default for ProcessParams {
             fuse: FuseParams::default(),
             close: Some(CloseParams::default()),
             reconstruct: ReconstructParams::default(),
+            finish: FinishParams::default(),
             remesh: RemeshParams::default(),
             until: Stage::Remesh,
             redo: false,

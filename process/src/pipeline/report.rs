@@ -2,7 +2,7 @@
 //! stage's section says whether its output was reused (and if not, why it ran) and carries that
 //! stage's own report; a reused output reports what the run that made it reported.
 
-use super::stages::{FuseReport, MergeReport, ReconstructReport, RegisterReport};
+use super::stages::{FuseReport, MergeReport, RegisterReport};
 use crate::denoise::DenoiseReport;
 use crate::laser_line::LineReport;
 use crate::remesh::RemeshReport;
@@ -104,7 +104,7 @@ pub struct ProcessReport {
     pub close: Option<Section<crate::reconstruct::closing::CloseReport>>,
     /// Reconstruction.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub reconstruct: Option<Section<ReconstructReport>>,
+    pub reconstruct: Option<Section<crate::pipeline::stages::MeshReport>>,
     /// Remeshing.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub remesh: Option<Section<RemeshReport>>,

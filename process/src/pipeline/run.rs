@@ -30,6 +30,8 @@ struct Out {
     layout: Layout,
     records: Records,
     opts: WriteOptions,
+    /// The rig has a turntable: clouds and meshes are in its object frame.
+    turntable: bool,
 }
 
 impl Out {
@@ -80,7 +82,17 @@ impl Out {
         fp: Fingerprint,
         r: &impl Serialize,
     ) -> Result<(PointCloud, Hash), Error> {
-        self.put_ply(name, rig::ply::cloud_to_bytes(cloud, &self.opts), fp, r, rig::ply::cloud_from_ply)
+        self.put_ply(name, rig::ply::cloud_to_bytes(cloud, &self.object_opts()), fp, r, rig::ply::cloud_from_ply)
+    }
+
+    /// The write options of a file in the object frame: on a turntable, the header says so, and
+    /// `reconstruct` takes the platter plane from it.
+    fn object_opts(&self) -> WriteOptions {
+        let mut opts = self.opts.clone();
+        if self.turntable {
+            opts.comments.push(rig::ply::TURNTABLE_FRAME.into());
+        }
+        opts
     }
 
     fn put_sparse(
@@ -241,8 +253,12 @@ pub fn process_scan(
     let layout = Layout::new(out);
     layout.create()?;
     let lock = Lock::acquire(out)?;
-    let mut o =
-        Out { layout, records: Records::open(out, params.redo), opts: WriteOptions::default().with_units("mm") };
+    let mut o = Out {
+        layout,
+        records: Records::open(out, params.redo),
+        opts: WriteOptions::default().with_units("mm"),
+        turntable: rig.turntable.is_some(),
+    };
     let old_report: Option<ProcessReport> = std::fs::read(o.path(layout::REPORT))
         .ok()
         .and_then(|b| serde_json::from_slice::<ProcessReport>(&b).ok())
@@ -281,6 +297,17 @@ pub fn process_scan(
             .map(|f| Ok((f.pattern, Manifest::inside(scan, &f.file, &format!("views[{v}].frames"))?)))
             .collect::<Result<_, Error>>()?;
         let mut vr = ViewReport { view: v, angle_deg: view.angle_deg, reused: true, ..Default::default() };
+        // The view's colour frame, if the capture took one; read (in colour, turned) only when needed.
+        let texture: Vec<(Pattern, PathBuf)> =
+            frames.iter().filter(|f| f.0 == Pattern::Texture).take(1).cloned().collect();
+        let texture_hashes = frame_hashes(&texture, scan)?;
+        let mut texture_image: Option<Image8> = None;
+        let read_texture = |cache: &mut Option<Image8>| -> Result<Option<Image8>, Error> {
+            if cache.is_none() && !texture.is_empty() {
+                *cache = load_colour_frames(&texture, &rig.image)?.pop().map(|t| t.1);
+            }
+            Ok(cache.clone())
+        };
         match manifest.method {
             Method::StructuredLight => {
                 let projector = rig.projector.as_ref().ok_or_else(|| Error::NoProjector { rig: rig_path.clone() })?;
@@ -323,13 +350,16 @@ pub fn process_scan(
                 }
                 // Triangulate.
                 let t = Instant::now();
-                let fp = Fingerprint::new(json!({
-                    "triangulate": params.triangulate,
-                    "normal_max_jump_mm": params.normal_max_jump_mm,
-                    "rig.camera": rig_part(&rig.camera),
-                    "rig.projector": rig_part(projector),
-                }))
-                .input(&name, map_hash);
+                let fp = with_inputs(
+                    Fingerprint::new(json!({
+                        "triangulate": params.triangulate,
+                        "normal_max_jump_mm": params.normal_max_jump_mm,
+                        "rig.camera": rig_part(&rig.camera),
+                        "rig.projector": rig_part(projector),
+                    }))
+                    .input(&name, map_hash),
+                    &texture_hashes,
+                );
                 let grid_name = Layout::grid(v);
                 let decision = o.records.decide(&grid_name, &fp);
                 let (mut hash, mut grid) = match &decision {
@@ -350,8 +380,12 @@ pub fn process_scan(
                             return Err(Error::View { view: v, stage: Stage::Triangulate, source });
                         }
                         let tri = triangulator.get_or_insert_with(|| Triangulator::new(&rig.camera, projector));
-                        let (grid, gr) = stages::triangulate(&map, tri, &params.triangulate, params.normal_max_jump_mm)
-                            .map_err(|source| Error::View { view: v, stage: Stage::Triangulate, source })?;
+                        let (mut grid, gr) =
+                            stages::triangulate(&map, tri, &params.triangulate, params.normal_max_jump_mm)
+                                .map_err(|source| Error::View { view: v, stage: Stage::Triangulate, source })?;
+                        if let Some(t) = read_texture(&mut texture_image)? {
+                            grid.colors = stages::grid_colours(&grid, &t);
+                        }
                         let (grid, hash) = o.put_grid(&grid_name, &grid, fp, &gr)?;
                         let depth = crate::preview::depth_image(&grid);
                         rig::image::write_png(&o.path(&Layout::depth_preview(v)), &depth, false)?;
@@ -426,7 +460,7 @@ pub fn process_scan(
                             "rig.laser": rig_part(laser),
                             "rig.working_volume": rig_part(&rig.working_volume()),
                         })),
-                        &frame_hashes(&pair, scan)?,
+                        &frame_hashes(&pair, scan)?.into_iter().chain(texture_hashes.clone()).collect(),
                     );
                     let name = Layout::laser_grid(v, k);
                     let decision = o.records.decide(&name, &fp);
@@ -459,7 +493,11 @@ pub fn process_scan(
                                 &params.laser,
                                 |_, _| true,
                             );
-                            let points = triangulate_line(&peaks, &rig.camera, &laser.plane);
+                            let mut points = triangulate_line(&peaks, &rig.camera, &laser.plane);
+                            if let Some(t) = read_texture(&mut texture_image)? {
+                                points.colors =
+                                    Some(points.pixels.iter().map(|&px| stages::colour_at(&t, px)).collect());
+                            }
                             let lr = LaserViewReport { laser: k, line, points: points.len() };
                             let (points, hash) = o.put_sparse(&name, &points, fp, &lr)?;
                             (hash, Some(points), lr)
@@ -731,11 +769,17 @@ fn scan_stages(
 
     // Reconstruct.
     let t = Instant::now();
-    let fp = Fingerprint::new(json!({ "reconstruct": params.reconstruct })).input(input_name, input_hash);
+    // The platter plane, where the base is cut: object z = 0 on a turntable.
+    let platter_z = rig.turntable.is_some().then_some(0.0);
+    let fp =
+        Fingerprint::new(json!({ "reconstruct": params.reconstruct, "finish": params.finish, "platter_z": platter_z }))
+            .input(input_name, input_hash);
     let decision = o.records.decide(layout::MESH, &fp);
+    // The mesh as written (normals, colours), for its copies in other formats.
+    let mut written_mesh: Option<rig::PolyMesh> = None;
     let (mesh_hash, mut mesh) = match &decision {
         Decision::Reuse(rec) => {
-            let r: Option<stages::ReconstructReport> = serde_json::from_value(rec.report.clone()).ok();
+            let r: Option<stages::MeshReport> = serde_json::from_value(rec.report.clone()).ok();
             report.reconstruct = r.map(|r| section(&decision, 0.0, r));
             (rec.hash, None)
         }
@@ -746,6 +790,14 @@ fn scan_stages(
             };
             let (mesh, rr) = stages::reconstruct(&input, &params.reconstruct)
                 .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
+            let (mesh, finish) = stages::finish(mesh, &input, &params.finish, platter_z, rr.cell())
+                .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
+            if let Some(b) = finish.base.filter(|b| b.base == stages::Base::Flat && !b.closed) {
+                report.warnings.push(format!(
+                    "mesh.ply: the flat base at z = {} did not close the mesh ({} outline edges capped by {} triangles);                      slicers may refuse it (--base open or closed to choose otherwise)",
+                    b.z, b.outline_edges, b.cap_triangles
+                ));
+            }
             // Checked before the mesh is written: unforced, an unsupported mesh leaves no mesh.ply.
             let support = stages::check_support(&mesh, &input, params.force).map_err(|source| {
                 // A laser scan's surface between its lines is only what reconstruction makes up: too
@@ -766,11 +818,15 @@ fn scan_stages(
                 Error::Stage { stage: Stage::Reconstruct, source }
             })?;
             report.warnings.extend(support);
-            let bytes = rig::ply::mesh_to_bytes(&stages::mesh_for_output(&mesh), &o.opts);
+            let colours = stages::mesh_colours(&mesh, &input);
+            let poly = stages::mesh_for_output(&mesh, colours);
+            let bytes = rig::ply::mesh_to_bytes(&poly, &o.object_opts());
+            written_mesh = Some(poly);
+            let rr = stages::MeshReport { reconstruct: rr, finish };
             let hash = o.put(layout::MESH, &bytes, fp, &rr)?;
             let back = rig::ply::parse(&bytes).and_then(|p| rig::ply::mesh_from_ply(&p));
             let back = back.map_err(|e| e.with_path(&o.path(layout::MESH)))?.triangulate();
-            if let stages::ReconstructReport::Adfft(a) = &rr
+            if let stages::ReconstructReport::Adfft(a) = &rr.reconstruct
                 && a.self_intersections.remaining > 0
             {
                 report.warnings.push(format!(
@@ -784,7 +840,7 @@ fn scan_stages(
     };
     report.outputs.push(layout::MESH.into());
     // The same surface for printing (binary STL) and for web viewers (GLB).
-    let held = mesh.as_ref().map(stages::mesh_for_output);
+    let held = written_mesh.take();
     o.export(layout::MESH_STL, (layout::MESH, mesh_hash), held.as_ref(), rig::stl::mesh_to_binary)?;
     o.export(layout::MESH_GLB, (layout::MESH, mesh_hash), held.as_ref(), rig::glb::mesh_to_bytes)?;
     report.outputs.extend([layout::MESH_STL.into(), layout::MESH_GLB.into()]);

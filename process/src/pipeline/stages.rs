@@ -12,7 +12,9 @@ use crate::mean_shift::{MeanShiftParams, MeanShiftReport};
 use crate::multiview::MultiViewReport;
 use crate::placement::{CropParams, place_sparse, place_view};
 use crate::reconstruct::adfft::{AdFftParams, AdFftReport, reconstruct_adfft};
+pub use crate::reconstruct::base::{Base, BaseReport};
 use crate::reconstruct::global_fft::{FftParams, FftReport, ReconstructError, reconstruct_fft};
+pub use crate::reconstruct::trim::TrimReport;
 use crate::register_scan::{Refused, RegisterParams, Tolerance, ViewPose, register_grids};
 use crate::remesh::{RemeshError, RemeshParams, RemeshReport};
 use rig::math::{Isometry3, Point3, Real, Vector3};
@@ -66,6 +68,9 @@ pub enum StageError {
         /// How many.
         count: usize,
     },
+    /// The base could not be cut.
+    #[error(transparent)]
+    Base(#[from] crate::reconstruct::base::BaseError),
     /// The reconstruction found no surface.
     #[error(
         "the reconstruction found no surface in {points} points: the normals may point inward, or the cloud \
@@ -623,6 +628,86 @@ pub fn reconstruct(cloud: &PointCloud, params: &ReconstructParams) -> Result<(Tr
     Ok((mesh, report))
 }
 
+/// What becomes of the reconstructed surface before it is written: its never-seen base, and surface
+/// far from the data.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FinishParams {
+    /// The base of an object on the platter (only where the platter plane is known: a turntable scan).
+    pub base: Base,
+    /// Remove surface farther than this from every sample (the cloud's units); `None` keeps it all.
+    pub trim: Option<Real>,
+    /// Close the holes trimming leaves, each by a fan from its centre.
+    pub trim_fill: bool,
+}
+
+impl Default for FinishParams {
+    fn default() -> Self {
+        FinishParams { base: Base::Flat, trim: None, trim_fill: false }
+    }
+}
+
+/// What finishing did.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct FinishReport {
+    /// The base cut, where one was made.
+    #[serde(default)]
+    pub base: Option<BaseReport>,
+    /// The trim, where asked.
+    #[serde(default)]
+    pub trim: Option<TrimReport>,
+    /// What was not done and why.
+    #[serde(default)]
+    pub skipped: Vec<String>,
+}
+
+/// A reconstruction's record: the method's report, and what finishing did.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct MeshReport {
+    /// The reconstruction.
+    #[serde(flatten)]
+    pub reconstruct: ReconstructReport,
+    /// Base and trim.
+    #[serde(default)]
+    pub finish: FinishReport,
+}
+
+/// How far above the platter the base is cut, in reconstruction cells: above the low-pass's rounding
+/// of the bottom edge (a cell or two), so the skirt below it is the object's wall.
+pub const SKIRT_CELLS: Real = 2.0;
+
+/// Finishes a reconstructed mesh: cuts its base at the platter plane `platter_z` (when known) as
+/// `params.base` says — at [`SKIRT_CELLS`] of `cell` above it, carried straight down —, then trims
+/// surface farther than `params.trim` from `samples` (never the flat base, which no sample need cover).
+pub fn finish(
+    mesh: TriMesh,
+    samples: &PointCloud,
+    params: &FinishParams,
+    platter_z: Option<Real>,
+    cell: Real,
+) -> Result<(TriMesh, FinishReport), StageError> {
+    let mut report = FinishReport::default();
+    let mut mesh = mesh;
+    match (params.base, platter_z) {
+        (Base::Closed, _) => {}
+        (_, None) => report
+            .skipped
+            .push("base: the platter plane is not known (no turntable), so the base is kept as reconstructed".into()),
+        (base, Some(z)) => {
+            let (cut, r) = crate::reconstruct::base::cut_base(&mesh, base, z, SKIRT_CELLS * cell)?;
+            mesh = cut;
+            report.base = Some(r);
+        }
+    }
+    if let Some(t) = params.trim {
+        // The flat base is where the object stood: kept by definition, not by samples.
+        let base = report.base.filter(|r| r.cap_triangles > 0).map(|r| r.z);
+        let (trimmed, r) = crate::reconstruct::trim::trim(&mesh, &samples.positions, t, params.trim_fill, base);
+        mesh = trimmed;
+        report.trim = Some(r);
+    }
+    Ok((mesh, report))
+}
+
 /// The largest median distance from a mesh's vertices to its cloud, as a fraction of the cloud's
 /// bounding-box diagonal, that a reconstruction of the cloud can have. A mesh the data supports lies
 /// on its points (median 0.1–0.2 % of the diagonal on the simulated scans, where closing the holes a
@@ -700,9 +785,65 @@ pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, Remesh
     Ok((quads, report))
 }
 
-/// A reconstructed mesh as it is written: with its vertex normals, which viewers shade by.
-pub fn mesh_for_output(mesh: &TriMesh) -> PolyMesh {
-    PolyMesh { normals: Some(mesh.vertex_normals()), ..mesh.to_poly() }
+/// A reconstructed mesh as it is written: with its vertex normals, which viewers shade by, and the
+/// colours of `colours` where given.
+pub fn mesh_for_output(mesh: &TriMesh, colours: Option<Vec<[u8; 3]>>) -> PolyMesh {
+    PolyMesh { normals: Some(mesh.vertex_normals()), colors: colours, ..mesh.to_poly() }
+}
+
+/// Each mesh vertex's colour from the cloud it was made from: the inverse-distance mean of its four
+/// nearest coloured samples (a vertex lies between samples, and one sample's noise should not be its
+/// colour). `None` when the cloud has no colour.
+pub fn mesh_colours(mesh: &TriMesh, cloud: &PointCloud) -> Option<Vec<[u8; 3]>> {
+    use rayon::prelude::*;
+    let colors = cloud.colors.as_ref().filter(|c| !c.is_empty())?;
+    let tree = crate::kd_tree::PointTree::new(&cloud.positions);
+    Some(
+        mesh.vertices
+            .par_iter()
+            .map(|v| {
+                let (mut sum, mut den) = ([0.0; 3], 0.0);
+                for j in tree.nearest_k(v, 4) {
+                    let w = 1.0 / ((cloud.positions[j] - v).norm() + 1e-6);
+                    for c in 0..3 {
+                        sum[c] += w * colors[j][c] as Real;
+                    }
+                    den += w;
+                }
+                sum.map(|s| (s / den).round().clamp(0.0, 255.0) as u8)
+            })
+            .collect(),
+    )
+}
+
+/// The 8-bit colour of a colour (or grey) image at a sub-pixel position, bilinear; edges clamped.
+pub fn colour_at(image: &rig::image::Image8, px: [f32; 2]) -> [u8; 3] {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let x = (px[0] as Real).clamp(0.0, (w - 1) as Real);
+    let y = (px[1] as Real).clamp(0.0, (h - 1) as Real);
+    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (x1, y1) = ((x0 + 1).min(w - 1), (y0 + 1).min(h - 1));
+    let (fx, fy) = (x - x0 as Real, y - y0 as Real);
+    let nc = image.channels as usize;
+    let at = |xx: usize, yy: usize, c: usize| image.data[(yy * w + xx) * nc + c.min(nc - 1)] as Real;
+    std::array::from_fn(|c| {
+        let top = at(x0, y0, c) * (1.0 - fx) + at(x1, y0, c) * fx;
+        let bottom = at(x0, y1, c) * (1.0 - fx) + at(x1, y1, c) * fx;
+        (top * (1.0 - fy) + bottom * fy).round().clamp(0.0, 255.0) as u8
+    })
+}
+
+/// A range grid's colours from the view's texture frame (same size as the grid: camera pixels).
+pub fn grid_colours(grid: &RangeGrid, texture: &rig::image::Image8) -> Option<Vec<[u8; 3]>> {
+    if (texture.width as usize, texture.height as usize) != (grid.width, grid.height) {
+        return None;
+    }
+    let w = grid.width;
+    Some(
+        (0..grid.points.len())
+            .map(|i| if grid.valid[i] { colour_at(texture, [(i % w) as f32, (i / w) as f32]) } else { [0; 3] })
+            .collect(),
+    )
 }
 
 /// How much finer than the default a remesh spacing may be.

@@ -5,6 +5,7 @@
 //! accuracy metric against a reference surface.
 
 pub mod adfft;
+pub mod base;
 pub mod closing;
 pub mod fft3;
 pub mod global_fft;
@@ -13,3 +14,4 @@ pub mod marching_cubes;
 pub use crate::mesh_distance;
 pub mod prune;
 pub mod self_intersect;
+pub mod trim;

@@ -1,6 +1,7 @@
 //! The geometry pipeline's integration tests, in one binary: each module is one area.
 
 mod acceptance;
+mod colour;
 mod denoise;
 mod icp;
 mod laser_real;

@@ -182,6 +182,7 @@ pub fn sparse_view_from_ply(ply: &PlyFile) -> Result<SparseView, ParseError> {
         }
         view.push(p, [c as f32, r as f32], conf.map_or(1.0, |k| k[i] as f32));
     }
+    view.colors = colors(v);
     Ok(view)
 }
 

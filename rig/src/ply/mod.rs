@@ -139,6 +139,15 @@ pub fn read_mesh(path: &Path) -> Result<PolyMesh, Error> {
     mesh_from_ply(&read(path)?).map_err(|e| e.with_path(path))
 }
 
+/// The header comment of a file in a turntable scan's object frame (`comment frame …`): z up the turntable
+/// axis, the platter at z = 0. `process` writes it; `reconstruct` takes the platter plane from it.
+pub const TURNTABLE_FRAME: &str = "frame turntable object: z up the axis, platter at z = 0";
+
+/// Whether a PLY header says its data are in a turntable scan's object frame ([`TURNTABLE_FRAME`]).
+pub fn in_turntable_frame(header: &Header) -> bool {
+    header.comments.iter().any(|c| c == TURNTABLE_FRAME)
+}
+
 /// Whether a PLY file holds a range grid (either layout [`range_grid_from_ply`] reads).
 pub fn is_range_grid(ply: &PlyFile) -> bool {
     ply.element("range_grid").is_some()

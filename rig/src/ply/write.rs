@@ -295,12 +295,16 @@ fn with_size(mut head: Vec<u8>, width: usize, height: usize) -> Vec<u8> {
 pub fn sparse_view_to_bytes(view: &SparseView, opts: &WriteOptions) -> Vec<u8> {
     let t = real(opts);
     let mut props = vertex_props(opts, false);
+    if view.colors.is_some() {
+        props.extend(RGB.map(String::from));
+    }
     props.extend(["float confidence", "float px_col", "float px_row"].map(String::from));
     let opts = with_sensor(opts, &view.sensor);
     let head = with_size(header(&opts, &[("vertex", view.len(), props)]), view.width, view.height);
     let mut body = Body { out: head, encoding: opts.encoding, first_on_line: true };
     for i in 0..view.len() {
         write_point(&mut body, t, &view.points[i], None);
+        write_rgb(&mut body, view.colors.as_ref().map(|c| &c[i]));
         body.value(ScalarType::F32, view.confidence[i] as f64);
         body.value(ScalarType::F32, view.pixels[i][0] as f64);
         body.value(ScalarType::F32, view.pixels[i][1] as f64);
