@@ -111,7 +111,10 @@ impl V4l2Camera {
         }
     }
 
-    fn to_grey(&self, bytes: &[u8]) -> Result<Image8, CameraError> {
+    /// The frame as an image: grey for pattern frames; with `colour` (the texture shot), RGB from
+    /// YUYV (BT.601), the JPEG's own colour from MJPG, grey from a grey stream (a mono camera has no
+    /// colour to give).
+    fn to_image(&self, bytes: &[u8], colour: bool) -> Result<Image8, CameraError> {
         let (w, h) = (self.format.width as usize, self.format.height as usize);
         let stride = (self.format.stride as usize).max(w);
         let frame_err = |m: String| CameraError::Frame(format!("{}: {m}", self.path));
@@ -126,6 +129,21 @@ impl V4l2Camera {
         let row_bytes = if yuyv { stride.max(2 * w) } else { stride };
         if bytes.len() < row_bytes * h {
             return Err(frame_err(format!("a short frame: {} bytes for {w}x{h}", bytes.len())));
+        }
+        if colour && yuyv && w.is_multiple_of(2) {
+            // Y0 U Y1 V: each pair of pixels shares its chroma.
+            let data = (0..h)
+                .flat_map(|r| {
+                    let row = &bytes[r * row_bytes..];
+                    (0..w).flat_map(move |c| {
+                        let pair = 4 * (c / 2);
+                        let (y, u, v) = (row[2 * c] as f32, row[pair + 1] as f32 - 128.0, row[pair + 3] as f32 - 128.0);
+                        let to8 = |x: f32| x.round().clamp(0.0, 255.0) as u8;
+                        [to8(y + 1.402 * v), to8(y - 0.344 * u - 0.714 * v), to8(y + 1.772 * u)]
+                    })
+                })
+                .collect();
+            return Ok(Image8 { width: w as u32, height: h as u32, channels: 3, data });
         }
         let data = (0..h)
             .flat_map(|r| {
@@ -142,7 +160,7 @@ impl Camera for V4l2Camera {
         (self.format.width, self.format.height)
     }
 
-    fn capture(&mut self, _shot: &Shot) -> Result<Image8, CameraError> {
+    fn capture(&mut self, shot: &Shot) -> Result<Image8, CameraError> {
         let err = |e: std::io::Error| CameraError::Frame(format!("{}: {e}", self.path));
         // A fresh stream per capture: frames queued before the last laser or pattern change cannot
         // come back; the first few of a new stream are dropped while the sensor settles.
@@ -153,6 +171,6 @@ impl Camera for V4l2Camera {
         let (buf, meta) = stream.next().map_err(err)?;
         let used = (meta.bytesused as usize).min(buf.len());
         let bytes = if used > 0 { &buf[..used] } else { buf };
-        self.to_grey(bytes)
+        self.to_image(bytes, shot.pattern == rig::Pattern::Texture)
     }
 }
