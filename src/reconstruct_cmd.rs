@@ -21,7 +21,8 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
         if let Some(b) = r.bottom.filter(|b| b.z != 0.0) {
             eprintln!(
                 "warning: {} does not start at z = 0, so its base was capped at z = {:.3}: --close is for clouds in a \
-                 turntable scan's object frame (z up, the platter at z = 0); elsewhere the caps may close the wrong sides",
+                 turntable scan's object frame \
+             (z up, the platter at z = 0); elsewhere the caps may close the wrong sides",
                 args.input.display(),
                 b.z
             );
@@ -35,7 +36,8 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
     let (finish, base_named) = args.reconstruct.finish()?;
     if base_named && finish.base != stages::Base::Closed && !in_frame {
         anyhow::bail!(
-            "--base {:?} cuts at the platter plane, but {} does not say it is in a turntable scan's object frame              (z up, the platter at z = 0): give --close if it is",
+            "--base {:?} cuts at the platter plane, but {} does not say it is in a turntable scan's object frame \
+             (z up, the platter at z = 0): give --close if it is",
             finish.base,
             args.input.display()
         );

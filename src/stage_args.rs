@@ -24,9 +24,9 @@ pub struct DecodeOpts {
     /// whiteThreshold is 5).
     #[arg(long, default_value_t = DecodeParams::default().bit_threshold)]
     pub bit_threshold: u8,
-    /// Without phase-shift frames, refine each Gray-code column to sub-pixel by a plane fitted to its
-    /// decoded neighbours within this many camera pixels; 0 keeps whole projector pixels (OpenCV's
-    /// GrayCodePattern result).
+    /// Without phase-shift frames, refine each Gray-code column to sub-pixel by a quadratic fitted to its
+    /// decoded neighbours within this many camera pixels (at least 2); 0 keeps whole projector pixels
+    /// (OpenCV's GrayCodePattern result).
     #[arg(long, value_name = "PIXELS", default_value_t = DecodeParams::default().gray_fit_radius)]
     pub gray_fit_radius: usize,
 }
@@ -35,6 +35,11 @@ impl DecodeOpts {
     pub fn params(&self) -> Result<DecodeParams> {
         if !(self.shadow_threshold >= 0.0 && self.shadow_threshold <= 255.0) {
             bail!("--shadow-threshold must be a grey level from 0 to 255, got {}", self.shadow_threshold);
+        }
+        if self.gray_fit_radius == 1 {
+            bail!(
+                "--gray-fit-radius 1 holds 9 neighbours, too few for the quadratic's 6 terms: give 0 (off) or 2 and up"
+            );
         }
         Ok(DecodeParams {
             shadow_threshold: self.shadow_threshold,

@@ -23,9 +23,9 @@ pub struct DecodeParams {
     pub min_modulation: f64,
     /// Phase and Gray code must agree within this many projector pixels (the period consistency check).
     pub phase_tolerance_px: f64,
-    /// Without phase shift, a Gray-code coordinate is refined from a plane fitted to its decoded
-    /// neighbours within this radius (camera pixels; [`crate::gray_subpixel`]). 0 keeps the integer
-    /// column, as OpenCV's GrayCodePattern gives it.
+    /// Without phase shift, a Gray-code coordinate is refined from a quadratic fitted to its decoded
+    /// neighbours within this radius (camera pixels, 2 or more; [`crate::gray_subpixel`]). 0 keeps the
+    /// integer column, as OpenCV's GrayCodePattern gives it.
     pub gray_fit_radius: usize,
 }
 

@@ -64,10 +64,16 @@ fn to_bytes(p: &Primitive<'_>) -> Vec<u8> {
         attributes["NORMAL"] = json!(accessors.len() - 1);
     }
     if let Some(colors) = p.colors {
-        // Normalised unsigned bytes; VEC4, because vertex attributes must be 4-byte aligned.
-        let bytes: Vec<u8> = colors.iter().flat_map(|c| [c[0], c[1], c[2], 255]).collect();
+        // glTF's vertex colours are linear; a camera's 8-bit values are sRGB. Normalised unsigned shorts
+        // keep the dark end's precision after the conversion; VEC4 keeps attributes 4-byte aligned.
+        let linear = |c: u8| (srgb_to_linear(c as f64 / 255.0) * 65535.0).round() as u16;
+        let bytes: Vec<u8> = colors
+            .iter()
+            .flat_map(|c| [linear(c[0]), linear(c[1]), linear(c[2]), 65535])
+            .flat_map(u16::to_le_bytes)
+            .collect();
         let v = view(&mut bin, &mut views, &bytes, ARRAY);
-        accessors.push(json!({"bufferView": v, "componentType": 5121, "normalized": true, "count": n, "type": "VEC4"}));
+        accessors.push(json!({"bufferView": v, "componentType": 5123, "normalized": true, "count": n, "type": "VEC4"}));
         attributes["COLOR_0"] = json!(accessors.len() - 1);
     }
     let mut primitive = json!({"attributes": attributes, "mode": 0});
@@ -127,14 +133,26 @@ fn to_bytes(p: &Primitive<'_>) -> Vec<u8> {
     glb.to_vec().unwrap_or_default()
 }
 
-/// A mesh as GLB bytes: its polygons fanned into triangles, with normals and colours where it has them.
+/// sRGB's transfer curve, undone: an 8-bit camera value (as 0–1) to linear light.
+fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+}
+
+/// Linear light (0–1) to an 8-bit sRGB value.
+fn linear_to_srgb(l: f64) -> u8 {
+    let c = if l <= 0.003_130_8 { 12.92 * l } else { 1.055 * l.powf(1.0 / 2.4) - 0.055 };
+    (c * 255.0).round().clamp(0.0, 255.0) as u8
+}
+
+/// A mesh as GLB bytes: its polygons fanned into triangles, with normals and colours where it has them
+/// (a mesh without faces is written as its points).
 pub fn mesh_to_bytes(mesh: &PolyMesh) -> Vec<u8> {
     let tris = mesh.triangulate();
     to_bytes(&Primitive {
         positions: &mesh.vertices,
         normals: mesh.normals.as_deref(),
         colors: mesh.colors.as_deref(),
-        triangles: Some(tris.faces),
+        triangles: (!tris.faces.is_empty()).then_some(tris.faces),
     })
 }
 
@@ -171,10 +189,23 @@ pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
     let back = to_gltf().try_inverse().unwrap_or_else(Matrix3::identity);
     let mut out = PolyMesh::default();
     let (mut normals, mut colors): (Vec<Option<Vector3>>, Vec<Option<[u8; 3]>>) = (Vec::new(), Vec::new());
-    let scene = gltf.default_scene().or_else(|| gltf.scenes().next());
+    // The scene's nodes; a file without scenes, every node that is no other's child.
+    let roots: Vec<gltf::Node<'_>> = match gltf.default_scene().or_else(|| gltf.scenes().next()) {
+        Some(s) => s.nodes().collect(),
+        None => {
+            let children: std::collections::HashSet<usize> =
+                gltf.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+            gltf.nodes().filter(|n| !children.contains(&n.index())).collect()
+        }
+    };
     let mut stack: Vec<(gltf::Node<'_>, nalgebra::Matrix4<f64>)> =
-        scene.into_iter().flat_map(|s| s.nodes()).map(|n| (n, nalgebra::Matrix4::identity())).collect();
+        roots.into_iter().map(|n| (n, nalgebra::Matrix4::identity())).collect();
+    // A node reached twice is a cycle or a shared subtree: refused, not walked forever (or exponentially).
+    let mut seen = std::collections::HashSet::new();
     while let Some((node, parent)) = stack.pop() {
+        if !seen.insert(node.index()) {
+            return Err(invalid(format!("node {} is reached twice in the scene's tree", node.index())));
+        }
         let local = nalgebra::Matrix4::from_column_slice(
             &node.transform().matrix().iter().flatten().map(|&x| x as f64).collect::<Vec<_>>(),
         );
@@ -215,8 +246,8 @@ pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
             normals.extend(ns);
             let mut cs: Vec<Option<[u8; 3]>> = vec![None; count];
             if let Some(read) = reader.read_colors(0) {
-                for (slot, c) in cs.iter_mut().zip(read.into_rgb_u8()) {
-                    *slot = Some(c);
+                for (slot, c) in cs.iter_mut().zip(read.into_rgb_f32()) {
+                    *slot = Some(c.map(|l| linear_to_srgb(l as f64)));
                 }
             }
             colors.extend(cs);
@@ -411,5 +442,34 @@ mod tests {
         assert!(e.contains("the header says"), "{e}");
         assert!(parse(b"glTF\x02\0\0\0").is_err());
         assert!(parse(b"").is_err());
+    }
+
+    /// Colours go out linear, as glTF defines them, and come back as the camera's sRGB values.
+    #[test]
+    fn colours_are_linear_in_the_file_and_srgb_when_read() {
+        for c in 0..=255u8 {
+            assert_eq!(linear_to_srgb(srgb_to_linear(c as f64 / 255.0)), c);
+        }
+        assert!((srgb_to_linear(128.0 / 255.0) - 0.2158).abs() < 1e-3);
+        // A mesh without faces goes out as points, a valid file.
+        let m = PolyMesh { vertices: vec![Point3::origin(); 3], ..Default::default() };
+        assert_eq!(parse(&mesh_to_bytes(&m)).unwrap().vertices.len(), 3);
+    }
+
+    /// A node that is its own child would be walked forever.
+    #[test]
+    fn a_cyclic_node_tree_is_refused() {
+        let mut json =
+            br#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],"nodes":[{"children":[0]}]}"#.to_vec();
+        while !json.len().is_multiple_of(4) {
+            json.push(b' ');
+        }
+        let glb = gltf::binary::Glb {
+            header: gltf::binary::Header { magic: *b"glTF", version: 2, length: (20 + json.len()) as u32 },
+            json: json.into(),
+            bin: None,
+        };
+        let e = parse(&glb.to_vec().unwrap()).unwrap_err().to_string();
+        assert!(e.contains("reached twice") || e.contains("valid glTF"), "{e}");
     }
 }

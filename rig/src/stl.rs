@@ -1,6 +1,7 @@
 //! STL, the file slicers print from: binary (the default, as every slicer and CAD tool writes it) or
-//! ASCII on request; both read back. Reading and binary writing are the `stl_io` crate's (see the
-//! README's list of crates); ASCII writing is the few lines of its text layout below.
+//! ASCII on request; both read back. Binary writing and ASCII reading are the `stl_io` crate's (see the
+//! README's list of crates); ASCII writing and binary reading are the few lines of their layouts below
+//! (stl_io decides binary or ASCII by the first bytes alone, and many binary headers start with "solid").
 //!
 //! STL holds triangles only, each with its own copy of its corners: polygons are fanned into triangles
 //! on writing, and reading merges corners with identical coordinates back into shared vertices, so a
@@ -65,37 +66,58 @@ pub fn write_mesh(path: &Path, mesh: &PolyMesh, ascii: bool) -> Result<(), Error
     write_atomic(path, &bytes)
 }
 
-/// Parses STL bytes (binary or ASCII) into a triangle mesh with shared vertices.
+/// Parses STL bytes (binary or ASCII) into a triangle mesh with shared vertices. A file whose size is
+/// exactly what its binary header counts is binary (its free-text header may well start with "solid");
+/// otherwise text starting with `solid` is ASCII.
 pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
     let invalid = |m: String| ParseError::new(Location::File, Problem::Invalid(m));
-    // A binary file says how many triangles follow; one whose size disagrees is cut short or padded.
-    let ascii = bytes.trim_ascii_start().starts_with(b"solid")
-        && !(bytes.len() >= 84 && {
-            let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
-            84 + 50 * n == bytes.len() as u64
-        });
-    if !ascii {
-        if bytes.len() < 84 {
-            return Err(ParseError::new(Location::File, Problem::Truncated("the 84-byte binary STL header".into())));
-        }
-        let n = u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64;
-        if 84 + 50 * n != bytes.len() as u64 {
-            return Err(invalid(format!(
-                "the binary header counts {n} triangles ({} bytes) but the file has {} bytes",
-                84 + 50 * n,
-                bytes.len()
-            )));
-        }
-    }
-    let mut cursor = std::io::Cursor::new(bytes);
-    let stl = stl_io::read_stl(&mut cursor).map_err(|e| invalid(format!("not a readable STL file: {e}")))?;
-    let vertices: Vec<Point3> =
-        stl.vertices.iter().map(|v| Point3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
+    let counted = (bytes.len() >= 84).then(|| u32::from_le_bytes([bytes[80], bytes[81], bytes[82], bytes[83]]) as u64);
+    let binary = counted.is_some_and(|n| 84 + 50 * n == bytes.len() as u64);
+    let text = bytes.trim_ascii_start();
+    let (vertices, faces): (Vec<Point3>, Vec<[u32; 3]>) = if binary {
+        binary_triangles(&bytes[84..])
+    } else if text.starts_with(b"solid") {
+        // stl_io wants `solid ` at the very start; files start with blanks, or `solid` and a newline.
+        let mut normal = b"solid ".to_vec();
+        normal.extend_from_slice(&text[5..]);
+        let stl = stl_io::read_stl(&mut std::io::Cursor::new(normal))
+            .map_err(|e| invalid(format!("not a readable ASCII STL file: {e}")))?;
+        let v = stl.vertices.iter().map(|v| Point3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
+        (v, stl.faces.iter().map(|f| f.vertices.map(|i| i as u32)).collect())
+    } else if bytes.len() < 84 {
+        return Err(ParseError::new(Location::File, Problem::Truncated("the 84-byte binary STL header".into())));
+    } else {
+        let n = counted.unwrap_or(0);
+        return Err(invalid(format!(
+            "the binary header counts {n} triangles ({} bytes) but the file has {} bytes",
+            84 + 50 * n,
+            bytes.len()
+        )));
+    };
     if let Some(i) = vertices.iter().position(|p| !p.coords.iter().all(|c| c.is_finite())) {
         return Err(ParseError::new(Location::Field(format!("vertex {i}")), Problem::NonFinite("a coordinate".into())));
     }
-    let faces = stl.faces.iter().map(|f| f.vertices.map(|i| i as u32));
     Ok(PolyMesh::from_faces(vertices, faces))
+}
+
+/// Binary STL's 50-byte records (normal, three corners, attribute), corners with identical bits merged.
+fn binary_triangles(records: &[u8]) -> (Vec<Point3>, Vec<[u32; 3]>) {
+    let f = |b: &[u8], k: usize| f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]]);
+    let mut index: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
+    let mut vertices = Vec::new();
+    let faces = records
+        .chunks_exact(50)
+        .map(|r| {
+            std::array::from_fn(|c| {
+                let xyz = [f(r, 3 + 3 * c), f(r, 4 + 3 * c), f(r, 5 + 3 * c)];
+                *index.entry(xyz.map(f32::to_bits)).or_insert_with(|| {
+                    vertices.push(Point3::new(xyz[0] as f64, xyz[1] as f64, xyz[2] as f64));
+                    (vertices.len() - 1) as u32
+                })
+            })
+        })
+        .collect();
+    (vertices, faces)
 }
 
 /// Reads an STL file (binary or ASCII).
@@ -138,6 +160,13 @@ mod tests {
         assert!(e.contains("counts 4 triangles"), "{e}");
         assert!(parse(&b[..50]).unwrap_err().to_string().contains("84-byte"));
         let e = parse(b"solid x\n  facet normal 0 0 1\n    outer loop\n      vertex 1 2\n").unwrap_err().to_string();
-        assert!(e.contains("not a readable STL"), "{e}");
+        assert!(e.contains("not a readable ASCII STL"), "{e}");
+        // ASCII after blank lines, and `solid` alone on its line, read; a binary header saying "solid" too.
+        let ascii = String::from_utf8(mesh_to_ascii(&tetrahedron(), "t")).unwrap();
+        assert_eq!(parse(format!("\n  {ascii}").as_bytes()).unwrap().face_count(), 4);
+        assert_eq!(parse(ascii.replacen("solid t", "solid", 1).as_bytes()).unwrap().face_count(), 4);
+        let mut b = mesh_to_binary(&tetrahedron());
+        b[..8].copy_from_slice(b"solid x\n");
+        assert_eq!(parse(&b).unwrap().face_count(), 4);
     }
 }

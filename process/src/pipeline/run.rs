@@ -792,9 +792,18 @@ fn scan_stages(
                 .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
             let (mesh, finish) = stages::finish(mesh, &input, &params.finish, platter_z, rr.cell())
                 .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
+            if let Some(b) = finish.base.filter(|b| b.outline_edges == 0) {
+                report.warnings.push(format!(
+                    "mesh.ply: the mesh does not reach {} mm above the platter, so its base was not cut ({:?}): \
+                     the object seems not to stand on the platter (check the rig's [turntable])",
+                    b.z + b.skirt,
+                    b.base
+                ));
+            }
             if let Some(b) = finish.base.filter(|b| b.base == stages::Base::Flat && !b.closed) {
                 report.warnings.push(format!(
-                    "mesh.ply: the flat base at z = {} did not close the mesh ({} outline edges capped by {} triangles);                      slicers may refuse it (--base open or closed to choose otherwise)",
+                    "mesh.ply: the flat base at z = {} did not close the mesh ({} outline edges capped by {} triangles); \
+                     slicers may refuse it (--base open or closed to choose otherwise)",
                     b.z, b.outline_edges, b.cap_triangles
                 ));
             }

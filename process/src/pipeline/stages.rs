@@ -699,8 +699,8 @@ pub fn finish(
         }
     }
     if let Some(t) = params.trim {
-        // The flat base is where the object stood: kept by definition, not by samples.
-        let base = report.base.filter(|r| r.cap_triangles > 0).map(|r| r.z);
+        // The base (cap and skirt) is where the object stood: kept by definition, not by samples.
+        let base = report.base.filter(|r| r.outline_edges > 0).map(|r| r.z + r.skirt);
         let (trimmed, r) = crate::reconstruct::trim::trim(&mesh, &samples.positions, t, params.trim_fill, base);
         mesh = trimmed;
         report.trim = Some(r);

@@ -78,6 +78,9 @@ pub enum BaseError {
         "the cut's outline at z = {0} crosses itself, so no flat cap can close it; use --base open or --base closed"
     )]
     OutlineCrosses(Real),
+    /// An outline vertex the triangulation cannot take (not finite, or beyond its range).
+    #[error("the cut's outline at z = {0} has a vertex that is not a finite coordinate; the mesh is damaged")]
+    NotFinite(Real),
 }
 
 /// Cuts `mesh` at z = `z + skirt` (keeping what is above), carries the cut's outline straight down to
@@ -150,10 +153,13 @@ pub fn cut_base(mesh: &TriMesh, base: Base, z: Real, skirt: Real) -> Result<(Tri
             }
         }
     }
-    // Triangles flattened onto the plane by the snapping add nothing but trouble.
+    // Triangles flattened onto the plane by the snapping add nothing but trouble; so does a face lying in
+    // the plane and facing up (a ledge exactly at the cut): the cap below would make it a double sheet.
     faces.retain(|f| {
         let [a, b, c] = f.map(|i| vertices[i as usize]);
-        (b - a).cross(&(c - a)).norm() > eps * eps && f[0] != f[1] && f[1] != f[2] && f[0] != f[2]
+        let n = (b - a).cross(&(c - a));
+        let ledge = a.z == z && b.z == z && c.z == z && n.z > 0.0;
+        n.norm() > eps * eps && f[0] != f[1] && f[1] != f[2] && f[0] != f[2] && !ledge
     });
     let z = if skirt > 0.0 { extend_down(&mut vertices, &mut faces, z, platter) } else { z };
     if base == Base::Flat {
@@ -225,7 +231,7 @@ fn cap(
         for v in [a, b] {
             if let std::collections::hash_map::Entry::Vacant(e) = to_cdt.entry(v) {
                 let p = vertices[v as usize];
-                let h = cdt.insert(Point2::new(p.x, p.y)).map_err(|_| BaseError::OutlineCrosses(z))?;
+                let h = cdt.insert(Point2::new(p.x, p.y)).map_err(|_| BaseError::NotFinite(z))?;
                 to_mesh.entry(h.index()).or_insert(v);
                 e.insert(h);
             }
@@ -345,6 +351,27 @@ mod tests {
         assert!(r.closed, "{r:?}");
         assert!((skirted.signed_volume() - 800.0).abs() < 1e-9, "{}", skirted.signed_volume());
         assert_eq!(skirted.vertices.iter().map(|p| p.z).fold(f64::INFINITY, f64::min), 0.0);
+    }
+
+    /// A face lying exactly in the cut plane and facing up (a ledge at the cut's height) is dropped, not
+    /// kept under the cap as a double sheet; one facing down (a base already there) stays.
+    #[test]
+    fn an_upward_ledge_in_the_cut_plane_is_dropped() {
+        let p = |x: f64, y: f64, z: f64| Point3::new(x, y, z);
+        let v = vec![
+            p(0., 0., 0.),
+            p(10., 0., 0.),
+            p(0., 10., 0.), // in the plane
+            p(20., 0., 1.),
+            p(30., 0., 1.),
+            p(20., 10., 1.),
+            p(20., 0., 9.), // a tetrahedron above it
+        ];
+        let tetra = [[3, 5, 4], [3, 4, 6], [3, 6, 5], [4, 5, 6]];
+        let up = TriMesh { vertices: v.clone(), faces: [vec![[0, 1, 2]], tetra.to_vec()].concat(), normals: None };
+        assert_eq!(cut_base(&up, Base::Open, 0.0, 0.0).unwrap().0.faces.len(), 4, "the ledge goes");
+        let down = TriMesh { vertices: v, faces: [vec![[0, 2, 1]], tetra.to_vec()].concat(), normals: None };
+        assert_eq!(cut_base(&down, Base::Open, 0.0, 0.0).unwrap().0.faces.len(), 5, "a base facing down stays");
     }
 
     /// A tube-like foot: a box with a square hole through it, cut mid-height, gets a ring-shaped cap.

@@ -32,14 +32,16 @@ pub struct TrimReport {
 }
 
 /// Removes the triangles whose centre is farther than `max_distance` from every point of `samples`
-/// (but never one lying in the plane z = `keep_plane`, a flat base), keeps the result manifold, and
-/// with `fill` closes each hole by a fan from its centre.
+/// (but never one lying wholly at or below z = `keep_below`: the base cut at the platter, its skirt and
+/// cap), keeps the result manifold, and with `fill` closes each hole trimming made by a fan from its
+/// centre (holes at or below `keep_below`, an open base, stay open). A fan is flat-ish only where the hole
+/// is: a hole curving far round the object is better left open (the default).
 pub fn trim(
     mesh: &TriMesh,
     samples: &[Point3],
     max_distance: Real,
     fill: bool,
-    keep_plane: Option<Real>,
+    keep_below: Option<Real>,
 ) -> (TriMesh, TrimReport) {
     let mut report = TrimReport { max_distance, ..Default::default() };
     if samples.is_empty() {
@@ -52,7 +54,7 @@ pub fn trim(
         .par_iter()
         .map(|f| {
             let [a, b, c] = f.map(|i| mesh.vertices[i as usize].coords);
-            keep_plane.is_some_and(|z| a.z == z && b.z == z && c.z == z)
+            keep_below.is_some_and(|z| a.z <= z && b.z <= z && c.z <= z)
                 || tree.nearest(&Point3::from((a + b + c) / 3.0)).1 <= limit
         })
         .collect();
@@ -63,7 +65,13 @@ pub fn trim(
     let loops = boundary_loops(&faces);
     report.holes = loops.len();
     if fill {
+        let base_loop = |lp: &Vec<u32>, vertices: &[Point3]| {
+            keep_below.is_some_and(|z| lp.iter().all(|&v| vertices[v as usize].z <= z))
+        };
         for lp in &loops {
+            if base_loop(lp, &vertices) {
+                continue;
+            }
             let centre = lp.iter().map(|&v| vertices[v as usize].coords).sum::<rig::math::Vector3>() / lp.len() as Real;
             vertices.push(Point3::from(centre));
             let c = (vertices.len() - 1) as u32;

@@ -155,6 +155,8 @@ fn sensor(ply: &PlyFile) -> Sensor {
 
 /// The largest image a sparse view may claim: 2³⁰ pixels (a 32768 × 32768 sensor).
 const MAX_SPARSE_PIXELS: usize = 1 << 30;
+/// The most cells a range grid may have: more than any camera (134 megapixels).
+const MAX_GRID_CELLS: usize = 1 << 27;
 
 /// A sparse view (see [`sparse_view_to_bytes`](super::sparse_view_to_bytes)): vertices with
 /// `px_col px_row` and, where present, `confidence` (else 1); the image size from `obj_info`. A pixel
@@ -195,7 +197,8 @@ pub fn range_grid_from_ply(ply: &PlyFile) -> Result<RangeGrid, ParseError> {
     let v = vertex_element(ply)?;
     let pts = positions(v)?;
     let (w, h) = image_size(ply)?;
-    let cells = w.checked_mul(h).filter(|&n| n <= MAX_SPARSE_PIXELS).ok_or_else(|| {
+    // A grid is allocated whole: bounded by a camera's size (2²⁷ cells, 3 GB of grid), not the file's.
+    let cells = w.checked_mul(h).filter(|&n| n <= MAX_GRID_CELLS).ok_or_else(|| {
         let msg = format!("obj_info gives a {w} × {h} grid, which no camera has");
         ParseError::new(Location::File, Problem::Invalid(msg))
     })?;
