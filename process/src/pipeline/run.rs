@@ -288,6 +288,8 @@ pub fn process_scan(
     let mut windows: BTreeMap<usize, Option<RowWindows>> = BTreeMap::new();
     // Per laser, the views whose capture lacks its frame.
     let mut missing_laser_frames: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
+    // Views without a texture frame: colour only holds if every view has one (merge drops it otherwise).
+    let mut untextured: Vec<usize> = Vec::new();
     for (done, &v) in complete.iter().enumerate() {
         let t0 = Instant::now();
         let view = &manifest.views[v];
@@ -298,6 +300,9 @@ pub fn process_scan(
             .collect::<Result<_, Error>>()?;
         let mut vr = ViewReport { view: v, angle_deg: view.angle_deg, reused: true, ..Default::default() };
         // The view's colour frame, if the capture took one; read (in colour, turned) only when needed.
+        if !frames.iter().any(|f| f.0 == Pattern::Texture) {
+            untextured.push(v);
+        }
         let texture: Vec<(Pattern, PathBuf)> =
             frames.iter().filter(|f| f.0 == Pattern::Texture).take(1).cloned().collect();
         let texture_hashes = frame_hashes(&texture, scan)?;
@@ -385,6 +390,12 @@ pub fn process_scan(
                                 .map_err(|source| Error::View { view: v, stage: Stage::Triangulate, source })?;
                         if let Some(t) = read_texture(&mut texture_image)? {
                             grid.colors = stages::grid_colours(&grid, &t);
+                            if grid.colors.is_none() {
+                                report.warnings.push(format!(
+                                    "view {v}: its texture frame is {}x{}, not the camera's {}x{}: the view has no colour",
+                                    t.width, t.height, grid.width, grid.height
+                                ));
+                            }
                         }
                         let (grid, hash) = o.put_grid(&grid_name, &grid, fp, &gr)?;
                         let depth = crate::preview::depth_image(&grid);
@@ -517,6 +528,14 @@ pub fn process_scan(
         report.views.push(vr);
         o.records.save()?;
         progress(Stage::Triangulate.min(params.until), done + 1, complete.len());
+    }
+    if !untextured.is_empty() && untextured.len() < complete.len() {
+        report.warnings.push(format!(
+            "{} of {} views have no texture frame (first: view {}): the merged cloud and mesh have no colour",
+            untextured.len(),
+            complete.len(),
+            untextured[0]
+        ));
     }
     // A laser the capture program never switched on is a choice (one laser of two); one whose frame
     // some views lack is a capture that lost frames.
