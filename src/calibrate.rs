@@ -100,6 +100,16 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     }
     let report = Value::Object(report);
     rig::error::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    // The page too, implausible or not: that is when a user most needs to look.
+    let page_path = report_path.with_extension("html");
+    let turn = params.orientation;
+    // The rig and the JSON report are written; a page that cannot be is a warning.
+    match web::calib_report::write(&page_path, &report, &|p: &Path| turn.read(p).ok()) {
+        Ok(bytes) => {
+            crate::progress::note(format!("report page {} ({:.1} MB)", page_path.display(), bytes as f64 / 1e6))
+        }
+        Err(e) => eprintln!("warning: {} was not written: {e}", page_path.display()),
+    }
     if implausible {
         anyhow::bail!(
             "the calibration cannot be right ({} finding(s) above; report in {}); {} was not written — fix the \

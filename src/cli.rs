@@ -67,6 +67,11 @@ pub enum Command {
     Remesh(RemeshArgs),
     /// Calibrate a rig (camera, projector, lasers, turntable) from chessboard captures into a rig file.
     Calibrate(CalibrateArgs),
+    /// Rebuild a processed scan's report page (processed/report.html): views, plots, a 3D viewer, files.
+    Report(ReportArgs),
+    /// Look at clouds and meshes (PLY, OBJ, OFF, STL, GLB, E57) in a 3D viewer page: written beside the
+    /// first file, or served on 127.0.0.1 with --serve.
+    View(ViewArgs),
     /// Decode a folder of structured-light images made by other tools into a projector correspondence map.
     Decode(DecodeArgs),
     /// Simulate a 36-view scan of the built-in object and process it: the whole pipeline on a virtual rig.
@@ -545,6 +550,31 @@ pub struct DecodeArgs {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ReportArgs {
+    /// The scan folder.
+    pub scan: PathBuf,
+    /// Its processed folder (default: SCAN/processed).
+    #[arg(long, short)]
+    pub out: Option<PathBuf>,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ViewArgs {
+    /// Clouds and meshes to show, one layer each.
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+    /// The page to write (default: FIRST_FILE.view.html beside the first file).
+    #[arg(long, short, conflicts_with = "serve")]
+    pub out: Option<PathBuf>,
+    /// Serve the page on 127.0.0.1 (nothing is written) until interrupted, and print its address.
+    #[arg(long)]
+    pub serve: bool,
+    /// The port to serve on (0: any free one).
+    #[arg(long, default_value_t = 0, requires = "serve")]
+    pub port: u16,
 }
 
 #[derive(clap::Args, Debug)]

@@ -38,6 +38,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     progress.finish();
     crate::progress::note(format!("2/2 processing into {}", processed.display()));
     let report = crate::process_cmd::run_pipeline(&scan, &processed, &process::ProcessParams::default())?;
+    let page = crate::pages::scan_report_after_run(&scan, &processed);
     let points: usize = report.views.iter().map(|v| v.points).sum();
     let mut text = String::new();
     writeln!(
@@ -110,6 +111,14 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         )?;
     }
     writeln!(text, "  report             {}", processed.join("report.json").display())?;
+    if let Some(page) = &page {
+        writeln!(
+            text,
+            "  report page        {}  ({:.1} MB; views, plots, the cloud and mesh in 3D, error against the truth)",
+            page.path.display(),
+            page.bytes as f64 / 1e6
+        )?;
+    }
     let diag = vase.bounding_box().map_or(size, |b| b.diagonal());
     let acc = accuracy(&scan, &processed, &cfg.rig.camera, report.views.len(), diag)?;
     writeln!(

@@ -10,6 +10,7 @@ mod denoise_cmd;
 mod fuse_cmd;
 mod info;
 mod outputs;
+mod pages;
 mod process_cmd;
 mod progress;
 mod reconstruct_cmd;
@@ -51,6 +52,8 @@ fn main() -> ExitCode {
         cli::Command::Remesh(a) => remesh_cmd::run(&a),
         cli::Command::Demo(a) => demo::run(&a),
         cli::Command::Calibrate(a) => calibrate::run(&a),
+        cli::Command::Report(a) => pages::report(&a),
+        cli::Command::View(a) => pages::view(&a),
         cli::Command::Scan(a) => scan_cmd::scan(&a),
         cli::Command::Turntable(a) => scan_cmd::turntable(&a),
         cli::Command::VirtualTurntable(a) => scan_cmd::virtual_turntable(&a),

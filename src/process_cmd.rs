@@ -53,13 +53,18 @@ fn status<T>(s: &Section<T>) -> String {
 pub fn run(args: &ProcessArgs) -> Result<()> {
     let out = args.out.clone().unwrap_or_else(|| args.scan.join("processed"));
     let report = run_pipeline(&args.scan, &out, &params(args)?)?;
+    let page = crate::pages::scan_report_after_run(&args.scan, &out);
     let mut o = std::io::stdout().lock();
     if args.json {
         serde_json::to_writer_pretty(&mut o, &report)?;
         writeln!(o)?;
         return Ok(());
     }
-    print_summary(&mut o, &out, &report)
+    print_summary(&mut o, &out, &report)?;
+    if let Some(page) = page {
+        writeln!(o, "  page: {}", page.path.display())?;
+    }
+    Ok(())
 }
 
 pub fn print_summary(o: &mut impl Write, out: &Path, report: &ProcessReport) -> Result<()> {

@@ -57,6 +57,8 @@ fn help_lists_every_subcommand_with_one_line() {
         "calibrate",
         "decode",
         "demo",
+        "report",
+        "view",
     ] {
         let line =
             text.lines().find(|l| l.trim_start().starts_with(cmd)).unwrap_or_else(|| panic!("{cmd} not in\n{text}"));

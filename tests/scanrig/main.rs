@@ -6,6 +6,7 @@ mod bases;
 mod cli;
 mod data_files;
 mod independent_readers;
+mod pages;
 #[cfg(feature = "projector-window")]
 mod projector_window;
 mod run;

@@ -338,6 +338,7 @@ pub fn calibrate_rig(
         missed.iter().map(|(f, why)| json!({"image": f, "why": why})).collect::<Vec<_>>().into(),
     );
     report.insert("board_found".into(), json!({"found": found.len(), "of": positions.len()}));
+    report.insert("board".into(), json!({"cols": cols, "rows": rows, "square_mm": square_mm}));
     report.insert("skipped".into(), Value::Array(skipped));
     report.insert("warnings".into(), plausible::findings(&rig, &report).into());
     Ok((rig, report))

@@ -57,11 +57,36 @@ pub fn camera(
         "fx": c.camera.fx, "fy": c.camera.fy, "cx": c.camera.cx, "cy": c.camera.cy,
         "distortion": c.camera.distortion.to_opencv(),
         "rms_px": c.rms,
-        "views": found.iter().zip(&c.view_rms).map(|(f, r)| json!({"image": f.position.lit, "rms_px": r})).collect::<Vec<_>>(),
+        "views": found.iter().zip(&c.view_rms).zip(&c.poses).map(|((f, r), pose)| view_json(f, *r, pose, board, &c.camera)).collect::<Vec<_>>(),
         "outlier_views": c.outlier_views.iter().map(|&v| &found[v].position.lit).collect::<Vec<_>>(),
         "iterations": c.iterations,
     });
     Ok((c.camera, report))
+}
+
+/// One board view of the camera step: its image, RMS, the corners found, each corner's
+/// reprojection residual (reprojected − found, px) and the board's pose (camera from board), for the
+/// calibration report to draw.
+fn view_json(f: &Found, rms: Real, pose: &Isometry3, board: &Board, camera: &PinholeCamera) -> Value {
+    let round = |v: Real| (v * 1e4).round() / 1e4;
+    let residuals: Vec<[Real; 2]> = board
+        .object
+        .iter()
+        .zip(&f.corners)
+        .map(|(o, c)| match camera.project(&(pose * o)) {
+            Some(p) => [round(p.x - c.x), round(p.y - c.y)],
+            None => [Real::NAN, Real::NAN],
+        })
+        .collect();
+    json!({
+        "image": f.position.lit, "rms_px": rms,
+        "corners": f.corners.iter().map(|c| [round(c.x), round(c.y)]).collect::<Vec<_>>(),
+        "residuals_px": residuals,
+        "pose": {
+            "rotation_vector": pose.rotation.scaled_axis().as_slice(),
+            "translation_mm": pose.translation.vector.as_slice(),
+        },
+    })
 }
 
 /// The turntable axis: from the views with recorded angles adjusted as one sweep, or without angles

@@ -18,6 +18,8 @@
 //! mesh.stl, mesh.glb           the same mesh for printing (binary STL) and web viewers (glTF binary)
 //! quads.obj, quads.ply         quad remesh of mesh.ply along a harmonic field's streamlines (ch. 6)
 //! report.json                  what every stage did (`ProcessReport`), merged stage by stage
+//! report.html                  the same to look at, with a 3D viewer (written by the `web` crate's
+//!                              `scan_report`, which reads this folder)
 //! ```
 
 use std::path::{Path, PathBuf};

@@ -1,0 +1,71 @@
+//! `scanrig report` and `scanrig view`, and the report pages `process`, `demo` and `calibrate`
+//! write: thin wrappers over the `web` crate that say where each page went.
+
+use crate::cli::{ReportArgs, ViewArgs};
+use anyhow::{Context, Result};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Writes `processed/report.html` for `scan`, saying where on stderr (stdout may carry JSON).
+pub fn write_scan_report(scan: &Path, processed: &Path) -> Result<web::scan_report::ScanPage> {
+    let t = std::time::Instant::now();
+    let page = web::scan_report::write(scan, processed)
+        .with_context(|| format!("writing the report page of {}", processed.display()))?;
+    crate::progress::note(format!(
+        "report page {} ({:.1} MB, {:.1} s): open it in a browser",
+        page.path.display(),
+        page.bytes as f64 / 1e6,
+        t.elapsed().as_secs_f64()
+    ));
+    Ok(page)
+}
+
+/// [`write_scan_report`] after a pipeline run: its outputs are written whatever happens to the page,
+/// so a page that cannot be made is a warning, not a failed run.
+pub fn scan_report_after_run(scan: &Path, processed: &Path) -> Option<web::scan_report::ScanPage> {
+    match write_scan_report(scan, processed) {
+        Ok(page) => Some(page),
+        Err(e) => {
+            eprintln!("warning: the report page was not written ({e:#}); `scanrig report` retries it");
+            None
+        }
+    }
+}
+
+pub fn report(args: &ReportArgs) -> Result<()> {
+    let processed = args.out.clone().unwrap_or_else(|| args.scan.join("processed"));
+    let page = write_scan_report(&args.scan, &processed)?;
+    let mut o = std::io::stdout().lock();
+    writeln!(o, "{}", page.path.display())?;
+    if let Some(rms) = page.truth_rms_percent {
+        writeln!(o, "  mesh against the truth: RMS {rms:.4} % of the diagonal above the bottom 3 mm")?;
+    }
+    Ok(())
+}
+
+/// `mesh.ply` → `mesh.view.html` beside it.
+fn default_page(first: &Path) -> PathBuf {
+    let stem = first.file_stem().map_or("view".into(), |s| s.to_string_lossy().into_owned());
+    first.with_file_name(format!("{stem}.view.html"))
+}
+
+pub fn view(args: &ViewArgs) -> Result<()> {
+    if args.serve {
+        let page = web::view_page::build(&args.files, None)?;
+        let server =
+            web::serve::Server::bind(page, args.port).with_context(|| format!("serving on 127.0.0.1:{}", args.port))?;
+        let addr = server.addr().context("the server has no TCP address")?;
+        let mut o = std::io::stdout().lock();
+        writeln!(o, "http://{addr}/")?;
+        o.flush()?;
+        drop(o);
+        crate::progress::note("serving the page until interrupted (Ctrl-C)");
+        server.run(|| false).context("serving the page")?;
+        return Ok(());
+    }
+    let out = args.out.clone().unwrap_or_else(|| default_page(&args.files[0]));
+    let bytes = web::view_page::write(&args.files, &out)?;
+    crate::progress::note(format!("{:.1} MB: open it in a browser", bytes as f64 / 1e6));
+    println!("{}", out.display());
+    Ok(())
+}
