@@ -3,7 +3,7 @@
 
 use rig::TriMesh;
 use rig::math::{Point3, Real};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 /// The closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
 pub fn closest_on_triangle(p: &Point3, a: &Point3, b: &Point3, c: &Point3) -> Point3 {
@@ -42,7 +42,8 @@ pub fn closest_on_triangle(p: &Point3, a: &Point3, b: &Point3, c: &Point3) -> Po
 pub struct MeshDistance {
     tris: Vec<[Point3; 3]>,
     cell: Real,
-    cells: HashMap<[i64; 3], Vec<u32>>,
+    // Fx hashing: the ring search looks up 27 or more cells a query, and SipHash dominated it.
+    cells: FxHashMap<[i64; 3], Vec<u32>>,
     /// Grid keys spanned by the mesh, for ending the ring search.
     lo: [i64; 3],
     hi: [i64; 3],
@@ -53,7 +54,7 @@ impl MeshDistance {
     /// expected, whichever is larger).
     pub fn new(mesh: &TriMesh, cell: Real) -> Self {
         let tris: Vec<[Point3; 3]> = mesh.faces.iter().map(|f| f.map(|i| mesh.vertices[i as usize])).collect();
-        let mut cells: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
+        let mut cells: FxHashMap<[i64; 3], Vec<u32>> = FxHashMap::default();
         let (mut lo, mut hi) = ([i64::MAX; 3], [i64::MIN; 3]);
         for (t, tri) in tris.iter().enumerate() {
             let a = key(&tri[0].inf(&tri[1]).inf(&tri[2]), cell);

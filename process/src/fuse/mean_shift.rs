@@ -20,7 +20,6 @@ use rayon::prelude::*;
 use rig::PointCloud;
 use rig::math::{Matrix3, Point3, Real, Vector3};
 use serde::Serialize;
-use std::collections::HashMap;
 
 /// Mean-shift settings; lengths in the cloud's units.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -46,6 +45,11 @@ pub struct MeanShiftParams {
     pub outlier_factor: Real,
     /// Neighbour rank for the density test.
     pub density_k: usize,
+    /// Kernels are built at one sample per grid cell of this fraction of the typical kernel radius
+    /// (the distance to the `k`-th neighbour), each weighted by the samples its cell holds; 0 builds
+    /// one per sample. Where many views overlap, samples closer than a fraction of the kernel's
+    /// reach fit the same plane from the same neighbours: one kernel stands for them all.
+    pub kernel_spacing: Real,
 }
 
 impl Default for MeanShiftParams {
@@ -60,6 +64,7 @@ impl Default for MeanShiftParams {
             min_support: 0.05,
             outlier_factor: 3.0,
             density_k: 8,
+            kernel_spacing: 0.0,
         }
     }
 }
@@ -104,11 +109,17 @@ struct Kernel {
 /// surface: a laser view's profile where the next view's lies farther than `k` neighbours reach.
 const LINE_AXIS_RATIO: Real = 0.1;
 
-fn build_kernels(points: &[Point3], normals: Option<&[Vector3]>, tree: &PointTree, p: &MeanShiftParams) -> Vec<Kernel> {
-    points
-        .par_iter()
-        .enumerate()
-        .map(|(i, pi)| {
+/// One kernel per sample in `at` (indices into `points`), over its neighbours among all the points.
+fn build_kernels(
+    points: &[Point3],
+    at: &[usize],
+    normals: Option<&[Vector3]>,
+    tree: &PointTree,
+    p: &MeanShiftParams,
+) -> Vec<Kernel> {
+    at.par_iter()
+        .map(|&i| {
+            let pi = &points[i];
             let nb = tree.nearest_k(pi, p.k);
             // χ: a Gaussian of the distance to p_i over the neighbourhood's radius (eq. 3.2).
             let radius = (points[*nb.last().unwrap()] - pi).norm().max(1e-12);
@@ -157,6 +168,59 @@ fn build_kernels(points: &[Point3], normals: Option<&[Vector3]>, tree: &PointTre
         .collect()
 }
 
+/// The samples kernels are built at, and how many samples each stands for: every sample, or with
+/// `kernel_spacing` the first (in the cloud's order) of each grid cell of that fraction of the
+/// median kernel radius.
+fn kernel_sites(points: &[Point3], tree: &PointTree, p: &MeanShiftParams) -> Sites {
+    let every = || Sites { at: (0..points.len()).collect(), counts: vec![1.0; points.len()], of: Vec::new() };
+    if p.kernel_spacing <= 0.0 {
+        return every();
+    }
+    let stride = points.len().div_ceil(2000).max(1);
+    let mut radii: Vec<Real> = (0..points.len())
+        .step_by(stride)
+        .map(|i| (points[*tree.nearest_k(&points[i], p.k).last().unwrap()] - points[i]).norm())
+        .collect();
+    // Thinning is for surfaces sampled over and over (overlapping range grids); laser lines, where a
+    // neighbourhood is a stretch of one line, need every kernel to span the gaps between lines.
+    // Eight neighbours: along a laser line they are its next rows, while a range grid's are a patch.
+    let lines = (0..points.len())
+        .step_by(stride)
+        .filter(|&i| crate::normals::is_line(points, &tree.nearest_k(&points[i], 8)))
+        .count();
+    if lines * 50 > radii.len() {
+        return every();
+    }
+    radii.sort_by(Real::total_cmp);
+    let cell = p.kernel_spacing * radii[radii.len() / 2];
+    if !(cell > 0.0 && cell.is_finite()) {
+        return every();
+    }
+    let mut site_of_cell: rustc_hash::FxHashMap<[i64; 3], u32> = Default::default();
+    let (mut at, mut counts, mut of) = (Vec::new(), Vec::new(), Vec::with_capacity(points.len()));
+    for (i, q) in points.iter().enumerate() {
+        let key = [0, 1, 2].map(|k| (q[k] / cell).floor() as i64);
+        let s = *site_of_cell.entry(key).or_insert_with(|| {
+            at.push(i);
+            counts.push(0.0);
+            (at.len() - 1) as u32
+        });
+        counts[s as usize] += 1.0;
+        of.push(s);
+    }
+    Sites { at, counts, of }
+}
+
+/// Where kernels are built ([`kernel_sites`]).
+struct Sites {
+    /// The samples kernels are built at.
+    at: Vec<usize>,
+    /// How many samples each kernel stands for.
+    counts: Vec<Real>,
+    /// Each sample's kernel (its cell's), when thinned; empty when every sample has its own.
+    of: Vec<u32>,
+}
+
 /// The outcome of fusion.
 #[derive(Debug, Clone)]
 pub struct MeanShiftResult {
@@ -191,10 +255,30 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
     }
     let t = std::time::Instant::now();
     let tree = PointTree::new(&cloud.positions);
-    let kernels = build_kernels(&cloud.positions, cloud.normals.as_deref(), &tree, params);
+    let Sites { at: sites, counts, of: site_of } = kernel_sites(&cloud.positions, &tree, params);
+    let kernels = build_kernels(&cloud.positions, &sites, cloud.normals.as_deref(), &tree, params);
+    drop(tree);
     let centres: Vec<Point3> = kernels.iter().map(|k| k.centre).collect();
     let centre_tree = PointTree::new(&centres);
-    let weight = |j: usize| cloud.confidence.as_ref().map_or(1.0, |c| c[j] as Real);
+    // Thinned, the samples of one cell share the kernels nearest their cell's site: the cell is a
+    // fraction of a kernel's reach, so they would pick (nearly) the same ones, at a third of the queries.
+    let kps = params.kernels_per_step.max(1);
+    let site_near: Vec<u32> = if site_of.is_empty() {
+        Vec::new()
+    } else {
+        sites
+            .par_iter()
+            .flat_map_iter(|&i| {
+                let mut near: Vec<u32> =
+                    centre_tree.nearest_k(&cloud.positions[i], kps).into_iter().map(|j| j as u32).collect();
+                // Fewer kernels than asked for (a tiny cloud): the rest of the slots marked empty.
+                near.resize(kps, u32::MAX);
+                near
+            })
+            .collect()
+    };
+    // Kernel j: its sample's confidence, times the samples it stands for.
+    let weight = |j: usize| counts[j] * cloud.confidence.as_ref().map_or(1.0, |c| c[sites[j]] as Real);
     report.seconds_kernels = t.elapsed().as_secs_f64();
 
     let t = std::time::Instant::now();
@@ -203,11 +287,17 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
         .into_par_iter()
         .map(|i| {
             let mut p = cloud.positions[i];
-            let h = kernels[i].h;
             // The kernels are frozen per sample (as eq. 3.6 freezes Φ): re-choosing them every step makes
             // the field discontinuous and the samples oscillate instead of converging.
-            let near = centre_tree.nearest_k(&p, params.kernels_per_step);
+            let near: Vec<usize> = if site_of.is_empty() {
+                centre_tree.nearest_k(&p, kps)
+            } else {
+                let s = site_of[i] as usize;
+                site_near[s * kps..(s + 1) * kps].iter().filter(|&&j| j != u32::MAX).map(|&j| j as usize).collect()
+            };
             let nearest = near[0];
+            // The sample's own kernel, or (kernels thinned) the nearest one standing for it.
+            let h = if sites.len() == cloud.len() { kernels[i].h } else { kernels[nearest].h };
             // The support at the sample's own position: eq. 3.7's adaptive step would carry even an
             // unsupported outlier onto the surface in one step, so support is judged before moving.
             let mut support = None;
@@ -221,7 +311,7 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
                     let y = p - k.centre;
                     let phi = weight(j) * (-0.5 * y.dot(&(k.inv * y))).exp();
                     for c in 0..3 {
-                        sum[c] += phi * colors[j][c] as Real;
+                        sum[c] += phi * colors[sites[j]][c] as Real;
                     }
                     den += phi;
                 }
@@ -256,6 +346,7 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
     report.hit_iteration_limit = moved.iter().filter(|m| m.1 >= params.max_iterations).count();
     report.seconds_shift = t.elapsed().as_secs_f64();
 
+    drop(centre_tree);
     let t = std::time::Instant::now();
     // Strays first: a sample where the kernel density at its start is low is an outlier whatever
     // maximum it reaches — eq. 3.7's adaptive step can carry it onto the surface, where it would
@@ -277,15 +368,24 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
         hs[hs.len() / 2]
     };
     let finals: Vec<Point3> = members.iter().map(|&i| moved[i].0).collect();
-    let final_tree = PointTree::new(&finals);
-    let pairs: Vec<Vec<usize>> = finals.par_iter().map(|p| final_tree.within(p, radius)).collect();
     let mut sets = rig::union_find::UnionFind::new(finals.len());
-    for (i, near) in pairs.iter().enumerate() {
-        for &j in near {
-            sets.union(i, j);
+    {
+        let final_tree = PointTree::new(&finals);
+        // Each pair once (j > i): most samples end alone, so most lists stay empty and unallocated.
+        let pairs: Vec<Vec<usize>> = finals
+            .par_iter()
+            .enumerate()
+            .map(|(i, p)| final_tree.within(p, radius).into_iter().filter(|&j| j > i).collect())
+            .collect();
+        for (i, near) in pairs.iter().enumerate() {
+            for &j in near {
+                sets.union(i, j);
+            }
         }
     }
-    let mut index: HashMap<usize, usize> = HashMap::new();
+    drop(finals);
+    // Cluster of each union-find root (roots are member indices).
+    let mut index = vec![usize::MAX; members.len()];
     let mut sums: Vec<(Vector3, usize, usize)> = Vec::new();
     let mut colour_sums: Vec<[Real; 3]> = Vec::new();
     // Per input sample, its cluster (None for strays).
@@ -293,11 +393,12 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
     for (m, &i) in members.iter().enumerate() {
         let (p, _, nearest, _, colour) = moved[i];
         let r = sets.find(m);
-        let c = *index.entry(r).or_insert_with(|| {
+        if index[r] == usize::MAX {
             sums.push((Vector3::zeros(), 0, nearest));
             colour_sums.push([0.0; 3]);
-            sums.len() - 1
-        });
+            index[r] = sums.len() - 1;
+        }
+        let c = index[r];
         sums[c].0 += p.coords;
         sums[c].1 += 1;
         for k in 0..3 {
@@ -344,7 +445,7 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
         }
         let mut n = kernels[*near].normal;
         if let Some(input) = &cloud.normals
-            && n.dot(&input[*near]) < 0.0
+            && n.dot(&input[sites[*near]]) < 0.0
         {
             n = -n;
         }

@@ -24,6 +24,9 @@ pub struct Section<T> {
     pub reason: Option<String>,
     /// Seconds this run spent on the stage (reading a reused output included).
     pub seconds: Real,
+    /// The process' resident peak during the stage (MB; absent where the system does not say).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peak_mb: Option<Real>,
     /// The stage's own report (from the run that made the output, when reused).
     pub report: T,
 }
@@ -118,9 +121,76 @@ pub struct ProcessReport {
     pub outputs: Vec<String>,
     /// Seconds in all.
     pub total_seconds: Real,
+    /// The resident peak while the views were decoded, triangulated and denoised (MB).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub views_peak_mb: Option<Real>,
+    /// One row per stage that ran or was reused, in order: its seconds, peak memory and points in and
+    /// out (what a benchmark table wants; the sections hold the detail).
+    #[serde(default)]
+    pub stages: Vec<StageRow>,
+}
+
+/// One stage's figures in [`ProcessReport::stages`].
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct StageRow {
+    /// The stage.
+    pub stage: String,
+    /// Seconds this run spent on it.
+    pub seconds: Real,
+    /// Resident peak during it (MB).
+    pub peak_mb: Option<Real>,
+    /// Points in (views: none).
+    pub points_in: Option<usize>,
+    /// Points out (reconstruction: the mesh's triangles; remeshing: its faces).
+    pub points_out: Option<usize>,
+    /// True when its output was reused.
+    pub reused: bool,
 }
 
 impl ProcessReport {
+    /// The [`StageRow`]s of the sections present.
+    pub fn stage_rows(&self) -> Vec<StageRow> {
+        let mut rows = vec![StageRow {
+            stage: "views".into(),
+            seconds: self.views.iter().map(|v| v.seconds).sum(),
+            peak_mb: self.views_peak_mb,
+            points_in: None,
+            points_out: Some(self.views.iter().map(|v| v.points).sum()),
+            reused: !self.views.is_empty() && self.views.iter().all(|v| v.reused),
+        }];
+        fn row<T>(stage: &str, s: &Section<T>, points_in: Option<usize>, points_out: usize) -> StageRow {
+            let (seconds, peak_mb, reused) = (s.seconds, s.peak_mb, s.reused);
+            StageRow { stage: stage.into(), seconds, peak_mb, points_in, points_out: Some(points_out), reused }
+        }
+        let merged = self.merge.as_ref().map(|m| m.report.points);
+        if let Some(s) = &self.merge {
+            rows.push(row("merge", s, rows[0].points_out, s.report.points));
+        }
+        if let Some(s) = &self.register {
+            rows.push(row("register", s, merged, s.report.points));
+        }
+        if let Some(s) = &self.fuse {
+            rows.push(row("fuse", s, Some(s.report.mean_shift.points_in), s.report.mean_shift.points_out));
+        }
+        let fused = self.fuse.as_ref().map(|f| f.report.mean_shift.points_out);
+        if let Some(s) = &self.close {
+            let caps = [s.report.bottom, s.report.top].iter().flatten().map(|c| c.points).sum::<usize>();
+            rows.push(row("close", s, fused, fused.unwrap_or(0) + caps));
+        }
+        if let Some(s) = &self.reconstruct {
+            rows.push(row("reconstruct", s, None, s.report.reconstruct.triangles()));
+        }
+        if let Some(s) = &self.remesh {
+            rows.push(row(
+                "remesh",
+                s,
+                self.reconstruct.as_ref().map(|r| r.report.reconstruct.triangles()),
+                s.report.quality.faces,
+            ));
+        }
+        rows
+    }
+
     /// Points in the merged cloud (0 before merging).
     pub fn merged_points(&self) -> usize {
         self.merge.as_ref().map_or(0, |m| m.report.points)

@@ -137,7 +137,9 @@ fn recorded<T: DeserializeOwned + Default>(v: &Value) -> T {
 }
 
 fn section<T>(decision: &Decision, seconds: Real, report: T) -> Section<T> {
-    Section { reused: decision.reused(), reason: decision.reason().map(str::to_string), seconds, report }
+    // The peak since the previous section: this stage's (views and reading its inputs included).
+    let peak_mb = super::memory::take_peak_mb();
+    Section { reused: decision.reused(), reason: decision.reason().map(str::to_string), seconds, peak_mb, report }
 }
 
 /// Parameters and rig parts as fingerprint values: the rig's parts by their exact debug text (every
@@ -244,6 +246,7 @@ pub fn process_scan(
     mut progress: impl Progress,
 ) -> Result<ProcessReport, Error> {
     let start = Instant::now();
+    let _ = super::memory::take_peak_mb();
     let manifest = Manifest::read(scan)?;
     let rig_path = Manifest::inside(scan, &manifest.rig, "rig")?;
     let rig = Rig::read(&rig_path)?;
@@ -338,7 +341,8 @@ pub fn process_scan(
                         let (map, dr) = stages::decode(&refs, (pw, ph), &params.decode)
                             .map_err(|source| Error::View { view: v, stage: Stage::Decode, source })?;
                         let hash = o.put(&name, &rig::npy::to_bytes(&map.to_npy()), fp, &dr)?;
-                        rig::image::write_png(&o.path(&Layout::projector_preview(v)), &map.preview(pw, ph), false)?;
+                        // Previews are for looking at: fast compression (deflating them was a sixth of a view's time).
+                        rig::image::write_png(&o.path(&Layout::projector_preview(v)), &map.preview(pw, ph), true)?;
                         vr.decode = Some(section(&decision, t.elapsed().as_secs_f64(), dr));
                         (hash, Some(map))
                     }
@@ -399,7 +403,7 @@ pub fn process_scan(
                         }
                         let (grid, hash) = o.put_grid(&grid_name, &grid, fp, &gr)?;
                         let depth = crate::preview::depth_image(&grid);
-                        rig::image::write_png(&o.path(&Layout::depth_preview(v)), &depth, false)?;
+                        rig::image::write_png(&o.path(&Layout::depth_preview(v)), &depth, true)?;
                         vr.triangulate = Some(section(&decision, t.elapsed().as_secs_f64(), gr));
                         (hash, Some(grid))
                     }
@@ -569,6 +573,7 @@ pub fn process_scan(
         }
     }
 
+    report.views_peak_mb = super::memory::take_peak_mb();
     let crop = CropParams { radius_mm: params.crop.radius_mm.or(rig.platter_radius_mm), ..params.crop };
     let result = scan_stages(&mut o, &mut report, &rig, manifest.method, outputs, &crop, params, &mut progress);
     // The report is written whatever happened, so what did finish is described.
@@ -578,6 +583,7 @@ pub fn process_scan(
     if let Some(old) = old_report {
         report.keep_sections_of(old);
     }
+    report.stages = report.stage_rows();
     let json = serde_json::to_vec_pretty(&report).expect("reports serialise");
     rig::write_atomic(&o.path(layout::REPORT), &json)?;
     drop(lock);

@@ -499,7 +499,10 @@ pub struct FuseParams {
 
 impl Default for FuseParams {
     fn default() -> Self {
-        FuseParams { mean_shift: MeanShiftParams::default(), orient_k: 12 }
+        // The pipeline's clouds are many overlapping views: one kernel per cell of 0.7 of a kernel's
+        // reach stands for the samples the views share (a third of the time on the demo, and closer to
+        // the truth: p95 0.0071 → 0.0056 % of the diagonal); clouds of laser lines are left whole.
+        FuseParams { mean_shift: MeanShiftParams { kernel_spacing: 0.7, ..MeanShiftParams::default() }, orient_k: 12 }
     }
 }
 

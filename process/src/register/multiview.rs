@@ -1,8 +1,8 @@
 //! Multi-view registration in two stages. First, views are placed one at a time, outward from a fixed
 //! anchor, each against the union of the views already placed — so no view is ever pulled toward others
 //! that are still at their rough starting poses (a group of such views can agree with each other and lock
-//! into a wrong pose together). Then every view is refined in turn against the union of all the others,
-//! for a few rounds — closing the 360° loop so that error does not accumulate along a chain.
+//! into a wrong pose together). Then every view is refined in turn against the union of the others near
+//! it, for a few rounds (fewer once a round moves nothing) — closing the 360° loop so that error does not accumulate along a chain.
 
 use crate::icp::{IcpError, IcpParams, IcpReport, IcpTarget, PosePrior, icp_near};
 use rig::math::{Isometry3, Point3, Real, Vector3};
@@ -33,6 +33,18 @@ pub struct MultiViewParams {
     /// How far a view's true pose may lie from its starting (turntable) pose, held as a prior on
     /// every registration of the view (`None`: none, the starting poses are only starts).
     pub prior: Option<PosePrior>,
+    /// Only views whose starting orientation is within this many degrees of a view's make its target
+    /// (180: every view). A turntable view overlaps its neighbours, not the far side, and a target of
+    /// every other view makes the work grow with the square of the views; views from anywhere (the
+    /// Stanford bunny's tops and chin) need them all.
+    pub neighbour_deg: Real,
+    /// Most points in one target union (the per-view share shrinks when more views are near).
+    pub max_target_points: usize,
+    /// Rounds stop once a round moves no view by more than this rotation (degrees) and this
+    /// fraction of ICP's `min_distance`: the poses already agree.
+    pub settled_deg: Real,
+    /// See `settled_deg`.
+    pub settled_shift: Real,
 }
 
 impl Default for MultiViewParams {
@@ -44,6 +56,10 @@ impl Default for MultiViewParams {
             target_points_per_view: 8000,
             // A turntable's step error and a calibrated axis are good to about a degree and a few mm.
             prior: Some(PosePrior { rotation_deg: 2.0, shift: 5.0 }),
+            neighbour_deg: 180.0,
+            max_target_points: 60_000,
+            settled_deg: 0.01,
+            settled_shift: 0.01,
         }
     }
 }
@@ -61,9 +77,18 @@ pub struct MultiViewReport {
     pub max_shift: Vec<Real>,
 }
 
-/// The union of the views `include` says yes to, `per_view` points each, at their poses.
-fn union_target(views: &[View], poses: &[Isometry3], include: impl Fn(usize) -> bool, per_view: usize) -> IcpTarget {
+/// The union of the views `include` says yes to, at their poses: `per_view` points each, fewer when
+/// that would exceed `max_points` in all.
+fn union_target(
+    views: &[View],
+    poses: &[Isometry3],
+    include: impl Fn(usize) -> bool,
+    per_view: usize,
+    max_points: usize,
+) -> IcpTarget {
     let (mut pts, mut nrm, mut bnd) = (Vec::new(), Vec::new(), Vec::new());
+    let included = (0..views.len()).filter(|&v| include(v)).count().max(1);
+    let per_view = per_view.min(max_points / included).max(1);
     for (v, (view, pose)) in views.iter().zip(poses).enumerate() {
         if !include(v) {
             continue;
@@ -104,10 +129,18 @@ pub fn refine_views(
     let default_order = turntable_order(views.len(), params.anchor);
     let mut placed = vec![false; views.len()];
     placed[params.anchor] = true;
+    // Views that overlap: starting orientations within `neighbour_deg` of each other.
+    // A view with none near (two views half a turn apart) takes every other as before.
+    let near = |u: usize, v: usize| {
+        let close = |w: usize| (initial[w].rotation.inverse() * initial[v].rotation).angle().to_degrees();
+        close(u) <= params.neighbour_deg || (0..views.len()).all(|w| w == v || close(w) > params.neighbour_deg)
+    };
+    let (per_view, max_points) = (params.target_points_per_view, params.max_target_points);
     for &v in order.unwrap_or(&default_order) {
-        let target = union_target(views, &poses, |u| placed[u], params.target_points_per_view);
+        let target = union_target(views, &poses, |u| placed[u] && near(u, v), per_view, max_points);
         let prior = params.prior.map(|p| (&initial[v], p));
-        poses[v] = icp_near(&views[v].points, &views[v].normals, &target, &poses[v], prior, &params.icp)?.0;
+        let icp = adapted(&params.icp, &views[v], &target, &poses[v]);
+        poses[v] = icp_near(&views[v].points, &views[v].normals, &target, &poses[v], prior, &icp)?.0;
         placed[v] = true;
     }
     let mut report = MultiViewReport { views: vec![IcpReport::default(); views.len()], ..Default::default() };
@@ -123,9 +156,10 @@ pub fn refine_views(
             if v == params.anchor {
                 continue;
             }
-            let target = union_target(views, &poses, |u| u != v, params.target_points_per_view);
+            let target = union_target(views, &poses, |u| u != v && near(u, v), per_view, max_points);
             let prior = params.prior.map(|p| (&initial[v], p));
-            let (pose, r) = icp_near(&views[v].points, &views[v].normals, &target, &poses[v], prior, &params.icp)?;
+            let icp = adapted(&params.icp, &views[v], &target, &poses[v]);
+            let (pose, r) = icp_near(&views[v].points, &views[v].normals, &target, &poses[v], prior, &icp)?;
             max_rot = max_rot.max((pose.rotation.inverse() * poses[v].rotation).angle().to_degrees());
             max_shift = max_shift.max((pose * centroids[v] - poses[v] * centroids[v]).norm());
             poses[v] = pose;
@@ -134,8 +168,26 @@ pub fn refine_views(
         report.rounds += 1;
         report.max_rotation_change_deg.push(max_rot);
         report.max_shift.push(max_shift);
+        if max_rot < params.settled_deg && max_shift < params.settled_shift * params.icp.min_distance {
+            break;
+        }
     }
     Ok((poses, report))
+}
+
+/// ICP's settings for one view against a target: the first correspondence distance fitted to how far
+/// the view lies from the target now (four times the median distance of a sample of its points to
+/// their nearest target points, within ICP's own bounds). Views that already agree start at the
+/// floor and converge in a few iterations instead of shrinking down from the largest distance.
+fn adapted(icp: &IcpParams, view: &View, target: &IcpTarget, pose: &Isometry3) -> IcpParams {
+    if target.is_empty() || view.points.is_empty() {
+        return *icp;
+    }
+    let stride = view.points.len().div_ceil(400).max(1);
+    let mut d: Vec<Real> = view.points.iter().step_by(stride).map(|p| target.nearest(&(pose * p)).1.sqrt()).collect();
+    d.sort_by(Real::total_cmp);
+    let start = (4.0 * d[d.len() / 2]).clamp(icp.min_distance, icp.start_distance.max(icp.min_distance));
+    IcpParams { start_distance: start, ..*icp }
 }
 
 #[cfg(test)]

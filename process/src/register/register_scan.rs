@@ -37,12 +37,21 @@ impl Default for Tolerance {
 }
 
 /// Registration's settings: the multi-view refinement and the tolerance on its corrections.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct RegisterParams {
     /// The refinement.
     pub refine: MultiViewParams,
     /// The corrections accepted.
     pub tolerance: Tolerance,
+}
+
+impl Default for RegisterParams {
+    fn default() -> Self {
+        // Turntable views overlap the views within about a quarter turn of them, not the far side:
+        // each registers against those, so the work grows with the views, not their square.
+        let refine = MultiViewParams { neighbour_deg: 100.0, ..MultiViewParams::default() };
+        RegisterParams { refine, tolerance: Tolerance::default() }
+    }
 }
 
 /// A correction beyond the [`Tolerance`], not applied.
