@@ -16,7 +16,7 @@ mod report;
 mod run;
 pub mod stages;
 
-pub use report::{GridReport, LaserViewReport, ProcessReport, REPORT_SCHEMA_VERSION, Section, ViewReport};
+pub use report::{GridReport, LaserViewReport, ProcessReport, REPORT_SCHEMA_VERSION, Section, StageRow, ViewReport};
 pub use run::{process_scan, register_processed};
 
 use crate::laser_line::LaserParams;
