@@ -8,9 +8,11 @@ use std::io::Write;
 pub fn run(args: &FuseArgs) -> Result<()> {
     let params = args.fuse.params()?;
     crate::outputs::distinct(&[("--out", Some(&args.out)), ("--outliers", args.outliers.as_deref())])?;
-    let cloud = rig::read_cloud(&args.input)?;
+    let mut cloud = rig::read_cloud(&args.input)?;
     let opts = crate::outputs::write_options_like(&args.input)?;
-    let (fused, r) = stages::fuse(&cloud, &params).with_context(|| format!("fusing {}", args.input.display()))?;
+    // Fusion takes its input: kept here only when the outliers are to be written from it.
+    let input = if args.outliers.is_some() { cloud.clone() } else { std::mem::take(&mut cloud) };
+    let (fused, r) = stages::fuse(input, &params).with_context(|| format!("fusing {}", args.input.display()))?;
     rig::write_cloud(&args.out, &fused.cloud, &opts)?;
     if let Some(path) = &args.outliers {
         rig::write_cloud(path, &fused.outliers(&cloud), &opts)?;

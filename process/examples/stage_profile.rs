@@ -18,7 +18,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let _ = take_peak_mb();
     let t = Instant::now();
-    let (fused, r) = stages::fuse(&registered, &params)?;
+    let points_in = registered.len();
+    let (fused, r) = stages::fuse(registered, &params)?;
     println!(
         "fuse: {:.2} s (kernels {:.2}, shift {:.2}, cluster {:.2}), peak {:.0} MB, {} → {} points",
         t.elapsed().as_secs_f64(),
@@ -26,7 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         r.mean_shift.seconds_shift,
         r.mean_shift.seconds_cluster,
         take_peak_mb().unwrap_or(f64::NAN),
-        registered.len(),
+        points_in,
         fused.cloud.len()
     );
     if let Some(truth) = opt("--truth") {

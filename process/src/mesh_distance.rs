@@ -94,7 +94,23 @@ impl MeshDistance {
         self.nearest_up_to(p, Real::INFINITY)
     }
 
+    /// The distance from `p` to the mesh when it exceeds `bound`, `None` when it does not. A
+    /// Hausdorff distance (the largest of many distances) needs exact values only above the largest
+    /// found so far: below it, the first triangle within `bound` settles the query.
+    pub fn distance_beyond(&self, p: &Point3, bound: Real) -> Option<Real> {
+        match self.search(p, Real::INFINITY, bound) {
+            Some((d, _)) if d <= bound => None,
+            Some((d, _)) => Some(d),
+            None => Some(Real::INFINITY),
+        }
+    }
+
     fn nearest_up_to(&self, p: &Point3, limit: Real) -> Option<(Real, usize)> {
+        self.search(p, limit, -1.0)
+    }
+
+    /// The ring search: stops at `limit`, or as soon as a triangle within `enough` is found.
+    fn search(&self, p: &Point3, limit: Real, enough: Real) -> Option<(Real, usize)> {
         // A NaN compares false with every bound, so the ring search would end up checking every
         // triangle, for nothing.
         if !p.coords.iter().all(|c| c.is_finite()) {
@@ -125,6 +141,9 @@ impl MeshDistance {
                         }
                         for &t in self.cells.get(&[k[0] + dx, k[1] + dy, k[2] + dz]).into_iter().flatten() {
                             consider(t as usize, &mut best);
+                            if best.is_some_and(|(d, _)| d <= enough) {
+                                return best;
+                            }
                         }
                     }
                 }

@@ -94,6 +94,16 @@ pub struct MeanShiftReport {
     pub seconds_cluster: Real,
 }
 
+/// A sample after its iterations: where it ended, after how many, the kernel nearest its start, and
+/// the kernel density there (its support).
+#[derive(Debug, Clone, Copy)]
+struct Moved {
+    p: Point3,
+    iterations: u32,
+    nearest: u32,
+    support: Real,
+}
+
 /// One anisotropic kernel: centre, normal, inverse of the scaled covariance, and size h.
 #[derive(Debug, Clone, Copy)]
 struct Kernel {
@@ -238,8 +248,21 @@ pub fn mean_shift(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResu
     // Every step is per-point neighbourhood work: in Morton order it stays cache-local, so time
     // grows linearly with the cloud (BENCHMARKS.md, mean shift scaling).
     let order = crate::spatial_order::morton_order(&cloud.positions);
-    let mut result = mean_shift_in_order(&cloud.select(&order), params);
-    let mut kept = vec![false; cloud.len()];
+    in_input_order(mean_shift_in_order(&cloud.select(&order), params), &order)
+}
+
+/// [`mean_shift`] on a cloud the caller no longer needs: its Morton-ordered copy replaces it, so a
+/// pipeline holds one copy of the input, not two.
+pub fn mean_shift_owned(cloud: PointCloud, params: &MeanShiftParams) -> MeanShiftResult {
+    let order = crate::spatial_order::morton_order(&cloud.positions);
+    let ordered = cloud.select(&order);
+    drop(cloud);
+    in_input_order(mean_shift_in_order(&ordered, params), &order)
+}
+
+/// `kept` back in the input's order from the Morton order `order` the fusion ran in.
+fn in_input_order(mut result: MeanShiftResult, order: &[usize]) -> MeanShiftResult {
+    let mut kept = vec![false; order.len()];
     for (&i, &k) in order.iter().zip(&result.kept) {
         kept[i] = k;
     }
@@ -282,8 +305,10 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
     report.seconds_kernels = t.elapsed().as_secs_f64();
 
     let t = std::time::Instant::now();
-    // Eqs. 3.8–3.10 for every sample independently.
-    let moved: Vec<(Point3, usize, usize, Real, [Real; 3])> = (0..cloud.len())
+    // Eqs. 3.8–3.10 for every sample independently. Colours apart: a cloud without them holds
+    // no per-sample colour (the moved samples are the fusion's largest array).
+    let coloured = cloud.colors.is_some();
+    let (moved, colours): (Vec<Moved>, Vec<[f32; 3]>) = (0..cloud.len())
         .into_par_iter()
         .map(|i| {
             let mut p = cloud.positions[i];
@@ -303,7 +328,7 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
             let mut support = None;
             // The sample's colour: the kernels' colours under the weights of its last step, so colour is
             // averaged exactly as position is (eq. 3.8's φ).
-            let colour_at = |p: &Point3| -> [Real; 3] {
+            let colour_at = |p: &Point3| -> [f32; 3] {
                 let Some(colors) = &cloud.colors else { return [0.0; 3] };
                 let (mut sum, mut den) = ([0.0; 3], 0.0);
                 for &j in &near {
@@ -315,7 +340,11 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
                     }
                     den += phi;
                 }
-                if den < 1e-300 { colors[i].map(|v| v as Real) } else { sum.map(|s| s / den) }
+                if den < 1e-300 { colors[i].map(|v| v as f32) } else { sum.map(|s| (s / den) as f32) }
+            };
+            let done = |p: Point3, it: usize, support: Real| {
+                let m = Moved { p, iterations: it as u32, nearest: nearest as u32, support };
+                (m, colour_at(&p))
             };
             for it in 0..params.max_iterations {
                 let mut m = Vector3::zeros();
@@ -331,19 +360,20 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
                 }
                 let s0 = *support.get_or_insert(pdf);
                 if den < 1e-300 {
-                    return (p, it, nearest, s0, colour_at(&p));
+                    return done(p, it, s0);
                 }
                 let step = m / den;
                 p -= step;
                 if step.norm() < 1e-4 * h {
-                    return (p, it + 1, nearest, s0, colour_at(&p));
+                    return done(p, it + 1, s0);
                 }
             }
-            (p, params.max_iterations, nearest, support.unwrap_or(0.0), colour_at(&p))
+            done(p, params.max_iterations, support.unwrap_or(0.0))
         })
-        .collect();
-    report.mean_iterations = moved.iter().map(|m| m.1 as Real).sum::<Real>() / moved.len() as Real;
-    report.hit_iteration_limit = moved.iter().filter(|m| m.1 >= params.max_iterations).count();
+        .unzip();
+    let colours = if coloured { colours } else { Vec::new() };
+    report.mean_iterations = moved.iter().map(|m| m.iterations as Real).sum::<Real>() / moved.len() as Real;
+    report.hit_iteration_limit = moved.iter().filter(|m| m.iterations as usize >= params.max_iterations).count();
     report.seconds_shift = t.elapsed().as_secs_f64();
 
     drop(centre_tree);
@@ -352,11 +382,11 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
     // maximum it reaches — eq. 3.7's adaptive step can carry it onto the surface, where it would
     // otherwise join (and bias) a surface cluster.
     let median_support = {
-        let mut s: Vec<Real> = moved.iter().map(|m| m.3).collect();
-        s.sort_by(Real::total_cmp);
-        s[s.len() / 2]
+        let mut s: Vec<Real> = moved.iter().map(|m| m.support).collect();
+        let half = s.len() / 2;
+        *s.select_nth_unstable_by(half, Real::total_cmp).1
     };
-    let stray: Vec<bool> = moved.iter().map(|m| m.3 < params.min_support * median_support).collect();
+    let stray: Vec<bool> = moved.iter().map(|m| m.support < params.min_support * median_support).collect();
     report.strays = stray.iter().filter(|&&s| s).count();
     let members: Vec<usize> = (0..moved.len()).filter(|&i| !stray[i]).collect();
 
@@ -367,93 +397,106 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
         hs.sort_by(Real::total_cmp);
         hs[hs.len() / 2]
     };
-    let finals: Vec<Point3> = members.iter().map(|&i| moved[i].0).collect();
+    let finals: Vec<Point3> = members.iter().map(|&i| moved[i].p).collect();
     let mut sets = rig::union_find::UnionFind::new(finals.len());
     {
         let final_tree = PointTree::new(&finals);
-        // Each pair once (j > i): most samples end alone, so most lists stay empty and unallocated.
-        let pairs: Vec<Vec<usize>> = finals
+        // Each pair once (j > i), in one flat list: most samples end alone.
+        let pairs: Vec<(u32, u32)> = finals
             .par_iter()
             .enumerate()
-            .map(|(i, p)| final_tree.within(p, radius).into_iter().filter(|&j| j > i).collect())
+            .flat_map_iter(|(i, p)| {
+                final_tree.within(p, radius).into_iter().filter(move |&j| j > i).map(move |j| (i as u32, j as u32))
+            })
             .collect();
-        for (i, near) in pairs.iter().enumerate() {
-            for &j in near {
-                sets.union(i, j);
-            }
+        for &(i, j) in &pairs {
+            sets.union(i as usize, j as usize);
         }
     }
     drop(finals);
-    // Cluster of each union-find root (roots are member indices).
-    let mut index = vec![usize::MAX; members.len()];
-    let mut sums: Vec<(Vector3, usize, usize)> = Vec::new();
-    let mut colour_sums: Vec<[Real; 3]> = Vec::new();
-    // Per input sample, its cluster (None for strays).
-    let mut cluster_of = vec![None; moved.len()];
+    // Cluster of each union-find root (roots are member indices). Per cluster: the sum of its
+    // samples' positions (then their mean), its count, the kernel nearest its first sample, and
+    // its colour sum.
+    const NONE: u32 = u32::MAX;
+    let mut index = vec![NONE; members.len()];
+    let mut positions: Vec<Point3> = Vec::new();
+    let mut count: Vec<u32> = Vec::new();
+    let mut near: Vec<u32> = Vec::new();
+    let mut colour_sums: Vec<[f32; 3]> = Vec::new();
+    // Per input sample, its cluster (NONE for strays).
+    let mut cluster_of = vec![NONE; moved.len()];
     for (m, &i) in members.iter().enumerate() {
-        let (p, _, nearest, _, colour) = moved[i];
         let r = sets.find(m);
-        if index[r] == usize::MAX {
-            sums.push((Vector3::zeros(), 0, nearest));
-            colour_sums.push([0.0; 3]);
-            index[r] = sums.len() - 1;
+        if index[r] == NONE {
+            index[r] = positions.len() as u32;
+            positions.push(Point3::origin());
+            count.push(0);
+            near.push(moved[i].nearest);
+            if coloured {
+                colour_sums.push([0.0; 3]);
+            }
         }
-        let c = index[r];
-        sums[c].0 += p.coords;
-        sums[c].1 += 1;
-        for k in 0..3 {
-            colour_sums[c][k] += colour[k];
+        let c = index[r] as usize;
+        positions[c] += moved[i].p.coords;
+        count[c] += 1;
+        if let Some(colour) = colours.get(i) {
+            for k in 0..3 {
+                colour_sums[c][k] += colour[k];
+            }
         }
-        cluster_of[i] = Some(c);
+        cluster_of[i] = c as u32;
     }
-    let reps: Vec<(Point3, usize)> = sums.iter().map(|(s, n, near)| (Point3::from(s / *n as Real), *near)).collect();
-    report.clusters = reps.len();
+    // The clustering's working arrays go before the representatives' tree is built.
+    drop((index, sets, members, moved, colours));
+    for (p, &n) in positions.iter_mut().zip(&count) {
+        *p = Point3::from(p.coords / n as Real);
+    }
+    report.clusters = positions.len();
     // Section 3.3.1: groups of outliers converge to points sparsely spread around the surface, so a
     // representative whose `density_k`-th neighbouring representative is far farther than typical goes.
-    let keep: Vec<bool> = if reps.len() > params.density_k {
-        let rep_points: Vec<Point3> = reps.iter().map(|r| r.0).collect();
-        let rep_tree = PointTree::new(&rep_points);
-        let kth: Vec<Real> = rep_points
+    let keep: Vec<bool> = if positions.len() > params.density_k {
+        let rep_tree = PointTree::new(&positions);
+        let kth: Vec<Real> = positions
             .par_iter()
             .map(|p| {
                 let nb = rep_tree.nearest_k(p, params.density_k + 1);
-                (rep_points[*nb.last().unwrap()] - p).norm()
+                (positions[*nb.last().unwrap()] - p).norm()
             })
             .collect();
         let median = {
             let mut s = kth.clone();
-            s.sort_by(Real::total_cmp);
-            s[s.len() / 2]
+            let half = s.len() / 2;
+            *s.select_nth_unstable_by(half, Real::total_cmp).1
         };
         kth.iter().map(|&d| d <= params.outlier_factor * median).collect()
     } else {
-        vec![true; reps.len()]
+        vec![true; positions.len()]
     };
+    let kept_count = keep.iter().filter(|&&k| k).count();
+    report.outliers_removed = positions.len() - kept_count;
     let mut out = PointCloud {
-        normals: Some(Vec::new()),
-        colors: cloud.colors.as_ref().map(|_| Vec::new()),
+        positions: Vec::with_capacity(kept_count),
+        normals: Some(Vec::with_capacity(kept_count)),
+        colors: cloud.colors.as_ref().map(|_| Vec::with_capacity(kept_count)),
         ..Default::default()
     };
-    for (r, (p, near)) in reps.iter().enumerate() {
-        if !keep[r] {
-            report.outliers_removed += 1;
-            continue;
-        }
+    for r in (0..positions.len()).filter(|&r| keep[r]) {
         if let Some(colors) = out.colors.as_mut() {
-            let n = sums[r].1 as Real;
+            let n = count[r] as f32;
             colors.push(colour_sums[r].map(|s| (s / n).round().clamp(0.0, 255.0) as u8));
         }
-        let mut n = kernels[*near].normal;
+        let near = near[r] as usize;
+        let mut n = kernels[near].normal;
         if let Some(input) = &cloud.normals
-            && n.dot(&input[sites[*near]]) < 0.0
+            && n.dot(&input[sites[near]]) < 0.0
         {
             n = -n;
         }
-        out.positions.push(*p);
+        out.positions.push(positions[r]);
         out.normals.as_mut().unwrap().push(n);
     }
     report.points_out = out.len();
     report.seconds_cluster = t.elapsed().as_secs_f64();
-    let kept = cluster_of.iter().map(|c| c.is_some_and(|c| keep[c])).collect();
+    let kept = cluster_of.iter().map(|&c| c != NONE && keep[c as usize]).collect();
     MeanShiftResult { cloud: out, kept, report }
 }

@@ -1,6 +1,10 @@
 //! Peak memory per stage: the process' resident high-water mark (`VmHWM` in `/proc/self/status`),
 //! read when a stage ends and reset for the next (writing 5 to `/proc/self/clear_refs`, Linux 4.0+).
 //! Elsewhere, or where the kernel refuses, there is no figure rather than a wrong one.
+//!
+//! Between scan stages the pipeline hands freed memory back to the system ([`release_freed`],
+//! glibc's `malloc_trim`): the worker threads' allocator arenas otherwise keep what a stage freed
+//! resident, and the next stage's peak would start from the last one's.
 
 use rig::math::Real;
 
@@ -12,6 +16,16 @@ pub fn take_peak_mb() -> Option<Real> {
     // Failing to reset only makes the next figure cover more than its stage: it is still a bound.
     let _ = std::fs::write("/proc/self/clear_refs", "5");
     Some(kb / 1024.0)
+}
+
+/// Returns freed heap memory to the system (glibc; elsewhere the allocator keeps its own policy).
+pub fn release_freed() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: malloc_trim only walks glibc's own arenas under their locks; it takes no pointers of
+    // ours and is safe to call at any time from any thread.
+    unsafe {
+        libc::malloc_trim(0);
+    }
 }
 
 #[cfg(test)]

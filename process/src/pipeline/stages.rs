@@ -536,17 +536,17 @@ impl Fused {
 }
 
 /// Fuses a cloud (see [`FuseParams`]).
-pub fn fuse(cloud: &PointCloud, params: &FuseParams) -> Result<(Fused, FuseReport), StageError> {
-    check_finite(cloud)?;
+pub fn fuse(cloud: PointCloud, params: &FuseParams) -> Result<(Fused, FuseReport), StageError> {
+    check_finite(&cloud)?;
     let k = params.mean_shift.k;
     if cloud.len() <= k.max(params.mean_shift.density_k) {
         return Err(StageError::TooFewPoints { points: cloud.len(), k });
     }
-    let mut result = crate::mean_shift::mean_shift(cloud, &params.mean_shift);
+    let had_normals = cloud.normals.is_some();
+    // Owned: fusion's Morton-ordered copy replaces the input instead of sitting beside it.
+    let mut result = crate::mean_shift::mean_shift_owned(cloud, &params.mean_shift);
     let mut oriented_parts = None;
-    if cloud.normals.is_none()
-        && let Some(normals) = result.cloud.normals.as_mut()
-    {
+    if !had_normals && let Some(normals) = result.cloud.normals.as_mut() {
         oriented_parts =
             Some(crate::orient::orient_by_spanning_tree(&result.cloud.positions, normals, params.orient_k));
     }

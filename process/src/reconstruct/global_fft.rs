@@ -188,6 +188,80 @@ fn trilinear(u: Vector3) -> ([isize; 3], [Real; 8]) {
     (base, w)
 }
 
+/// Points bucketed by the grid plane their trilinear corners start in, for splatting z-slabs of the
+/// grid in parallel: each slab's points write its own planes, all but the spill of its last plane's
+/// points into the next slab, which is added after.
+struct ZSlabs {
+    /// Point indices ordered by their lower corner's (wrapped) z plane.
+    order: Vec<u32>,
+    /// Where each plane's points start in `order` (n + 1 entries).
+    starts: Vec<usize>,
+    n: usize,
+    /// Planes per slab.
+    thickness: usize,
+}
+
+impl ZSlabs {
+    fn new(corners: &[([isize; 3], [Real; 8])], n: usize) -> Self {
+        let plane = |b: &[isize; 3]| b[2].rem_euclid(n as isize) as usize;
+        let mut starts = vec![0usize; n + 1];
+        for (b, _) in corners {
+            starts[plane(b) + 1] += 1;
+        }
+        for z in 0..n {
+            starts[z + 1] += starts[z];
+        }
+        let mut next = starts.clone();
+        let mut order = vec![0u32; corners.len()];
+        for (i, (b, _)) in corners.iter().enumerate() {
+            let z = plane(b);
+            order[next[z]] = i as u32;
+            next[z] += 1;
+        }
+        // 32 slabs, whatever the threads: enough to share uneven slabs (a base, a cap) out evenly,
+        // and the same sums in the same order on every machine.
+        let thickness = n.div_ceil(32).max(1);
+        ZSlabs { order, starts, n, thickness }
+    }
+
+    /// `grid = Σ_i value(i) · trilinear weights of point i` (eq. 5.16's splat of V).
+    fn splat(&self, grid: &mut [f32], corners: &[([isize; 3], [Real; 8])], value: impl Fn(usize) -> Real + Sync) {
+        let (n, t) = (self.n, self.thickness);
+        let plane_len = n * n;
+        let spills: Vec<(usize, Vec<f32>)> = grid
+            .par_chunks_mut(t * plane_len)
+            .enumerate()
+            .map(|(s, slab)| {
+                slab.fill(0.0);
+                let (z0, z1) = (s * t, ((s + 1) * t).min(n));
+                let spill_plane = z1 % n;
+                let mut spill = vec![0f32; plane_len];
+                for &i in &self.order[self.starts[z0]..self.starts[z1]] {
+                    let i = i as usize;
+                    let (base, w) = &corners[i];
+                    let v = value(i);
+                    for (c, wc) in w.iter().enumerate() {
+                        let at = index(n, *base, c);
+                        let z = at / plane_len;
+                        let add = (v * wc) as f32;
+                        if (z0..z1).contains(&z) {
+                            slab[at - z0 * plane_len] += add;
+                        } else {
+                            spill[at - z * plane_len] += add;
+                        }
+                    }
+                }
+                (spill_plane, spill)
+            })
+            .collect();
+        for (z, spill) in spills {
+            for (g, s) in grid[z * plane_len..(z + 1) * plane_len].iter_mut().zip(spill) {
+                *g += s;
+            }
+        }
+    }
+}
+
 fn index(n: usize, base: [isize; 3], c: usize) -> usize {
     let wrap = |v: isize| v.rem_euclid(n as isize) as usize;
     let (x, y, z) = (
@@ -238,17 +312,12 @@ pub fn indicator(
     let h = fft.half();
     let two_pi_over_size = std::f64::consts::TAU / size;
     let sigma = smoothing_cells * cell;
+    let slabs = ZSlabs::new(&corners, n);
     let mut splat_seconds = t.elapsed().as_secs_f64();
     let mut fft_seconds = 0.0;
     for axis in 0..3 {
         let t = Instant::now();
-        real.fill(0.0);
-        for ((base, w), (nrm, a)) in corners.iter().zip(normals.iter().zip(weights)) {
-            let v = nrm[axis] * a;
-            for c in 0..8 {
-                real[index(n, *base, c)] += (v * w[c]) as f32;
-            }
-        }
+        slabs.splat(&mut real, &corners, |i| normals[i][axis] * weights[i]);
         splat_seconds += t.elapsed().as_secs_f64();
         let t = Instant::now();
         fft.forward(&mut real, &mut spectrum);

@@ -8,6 +8,7 @@ use rig::math::{Point3, Real};
 use rig::{PolyMesh, TriMesh};
 use serde::Serialize;
 use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Upper ends of the |angle − 90°| histogram bins, in degrees (the last bin is open).
 pub const ANGLE_BINS: [Real; 6] = [5.0, 10.0, 20.0, 30.0, 45.0, 90.0];
@@ -91,26 +92,30 @@ pub fn measure(input: &TriMesh, out: &PolyMesh, constraints: &[Vec<Point3>], tol
         let to_input = MeshDistance::new(input, cell);
         let to_output = MeshDistance::new(&tri_out, mean_edge(&tri_out).max(cell));
         // Every query is independent: both directions in parallel (a 500 K-triangle input is a
-        // million queries).
-        let out_to_input = tri_out
-            .faces
-            .par_iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| tri_out.vertices[i as usize]);
+        // million queries). Only the largest distance counts, so a query below the largest found so
+        // far stops at the first triangle within it (the same maximum, a fraction of the search).
+        let largest = AtomicU64::new(0f64.to_bits());
+        let consider = |index: &MeshDistance, p: &Point3| {
+            if let Some(d) = index.distance_beyond(p, f64::from_bits(largest.load(Ordering::Relaxed))) {
+                // Non-negative floats order as their bits do.
+                largest.fetch_max(d.to_bits(), Ordering::Relaxed);
+            }
+        };
+        tri_out.faces.par_iter().for_each(|t| {
+            let [a, b, c] = t.map(|i| tri_out.vertices[i as usize]);
+            for p in
                 [a, Point3::from((a.coords + b.coords) / 2.0), Point3::from((a.coords + b.coords + c.coords) / 3.0)]
-                    .iter()
-                    .map(|p| to_input.distance(p))
-                    .fold(0.0, Real::max)
-            })
-            .reduce(|| 0.0, Real::max);
-        let input_to_out = input
-            .faces
-            .par_iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|i| input.vertices[i as usize]);
-                to_output.distance(&a).max(to_output.distance(&Point3::from((a.coords + b.coords + c.coords) / 3.0)))
-            })
-            .reduce(|| 0.0, Real::max);
+            {
+                consider(&to_input, &p);
+            }
+        });
+        let out_to_input = f64::from_bits(largest.swap(0f64.to_bits(), Ordering::Relaxed));
+        input.faces.par_iter().for_each(|t| {
+            let [a, b, c] = t.map(|i| input.vertices[i as usize]);
+            consider(&to_output, &a);
+            consider(&to_output, &Point3::from((a.coords + b.coords + c.coords) / 3.0));
+        });
+        let input_to_out = f64::from_bits(largest.load(Ordering::Relaxed));
         let h = out_to_input.max(input_to_out);
         q.hausdorff = h;
         q.hausdorff_relative = if diag > 0.0 { h / diag } else { 0.0 };

@@ -14,11 +14,13 @@
 //! coordinates, `uchar` colours, and faces as `list uchar int vertex_indices`, which MeshLab, Open3D
 //! and CloudCompare all open.
 
+mod as_written;
 mod body;
 mod convert;
 mod header;
 mod write;
 
+pub use as_written::{cloud_as_written, range_grid_as_written};
 pub use convert::{cloud_from_ply, mesh_from_ply, range_grid_from_ply, sparse_view_from_ply};
 pub use header::{ElementDef, Encoding, Header, PropertyDef, PropertyKind, ScalarType};
 pub use write::{
