@@ -9,6 +9,7 @@ mod independent_readers;
 mod pages;
 #[cfg(feature = "projector-window")]
 mod projector_window;
+mod python_bindings;
 mod run;
 mod scanner_files;
 mod shared_demo;

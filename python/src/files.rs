@@ -1,0 +1,90 @@
+//! Every file format scanrig reads and writes (PLY, OBJ, STL, GLB, E57, PTS/XYZ — by extension), as
+//! arrays.
+
+use crate::arrays::{self, Xyz};
+use crate::errors;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(read_cloud, m)?)?;
+    m.add_function(wrap_pyfunction!(write_cloud, m)?)?;
+    m.add_function(wrap_pyfunction!(read_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(write_mesh, m)?)?;
+    Ok(())
+}
+
+/// Reads a point cloud (any format scanrig reads, by extension). Returns a dict of arrays: points
+/// (N×3 float64), normals, colors (N×3 uint8), confidence (float32), view_id (uint32) — None where
+/// the file has none.
+#[pyfunction]
+fn read_cloud(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
+    let cloud = py.detach(|| rig::read_cloud(&path)).map_err(errors::file)?;
+    let d = PyDict::new(py);
+    d.set_item("points", arrays::points_out(py, cloud.positions))?;
+    d.set_item("normals", cloud.normals.map(|n| arrays::vectors_out(py, n)))?;
+    d.set_item("colors", cloud.colors.map(|c| arrays::colors_out(py, c)))?;
+    d.set_item("confidence", cloud.confidence.map(|c| arrays::vec_out(py, c)))?;
+    d.set_item("view_id", cloud.view_id.map(|c| arrays::vec_out(py, c)))?;
+    Ok(d)
+}
+
+/// Writes a point cloud; the format follows the extension (binary PLY by default, float32
+/// coordinates as every viewer reads).
+#[pyfunction]
+#[pyo3(signature = (path, points, normals=None, colors=None, confidence=None))]
+fn write_cloud(
+    py: Python<'_>,
+    path: PathBuf,
+    points: &Bound<'_, PyAny>,
+    normals: Option<&Bound<'_, PyAny>>,
+    colors: Option<&Bound<'_, PyAny>>,
+    confidence: Option<&Bound<'_, PyAny>>,
+) -> PyResult<()> {
+    let xyz = Xyz::extract(points, "points")?;
+    let n = xyz.len();
+    let cloud = rig::PointCloud {
+        positions: xyz.points().to_vec(),
+        normals: arrays::optional_xyz(normals, "normals", n)?.map(|v| v.vectors().to_vec()),
+        colors: arrays::optional_colors(colors, n)?,
+        confidence: arrays::optional_f32(confidence, "confidence", n)?,
+        view_id: None,
+    };
+    py.detach(|| rig::write_cloud(&path, &cloud, &rig::ply::WriteOptions::default())).map_err(errors::file)
+}
+
+/// Reads a mesh (PLY, OBJ, STL, GLB). Returns a dict: vertices (V×3), faces (a list of index lists:
+/// triangles, quads, polygons as in the file), triangles (F×3, the faces fanned), normals, colors.
+#[pyfunction]
+fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
+    let mesh = py.detach(|| rig::read_mesh(&path)).map_err(errors::file)?;
+    let tri = mesh.triangulate();
+    let d = PyDict::new(py);
+    d.set_item("faces", mesh.faces().map(|f| f.to_vec()).collect::<Vec<_>>())?;
+    d.set_item("triangles", arrays::triangles_out(py, &tri.faces))?;
+    d.set_item("normals", mesh.normals.map(|n| arrays::vectors_out(py, n)))?;
+    d.set_item("colors", mesh.colors.map(|c| arrays::colors_out(py, c)))?;
+    d.set_item("vertices", arrays::points_out(py, mesh.vertices))?;
+    Ok(d)
+}
+
+/// Writes a mesh; the format follows the extension. `faces` is an F×3 (or F×4) integer array.
+#[pyfunction]
+#[pyo3(signature = (path, vertices, faces, colors=None))]
+fn write_mesh(
+    py: Python<'_>,
+    path: PathBuf,
+    vertices: &Bound<'_, PyAny>,
+    faces: &Bound<'_, PyAny>,
+    colors: Option<&Bound<'_, PyAny>>,
+) -> PyResult<()> {
+    let v = Xyz::extract(vertices, "vertices")?;
+    let f = arrays::faces(faces, v.len())?;
+    let mut mesh = rig::PolyMesh { vertices: v.points().to_vec(), ..Default::default() };
+    for face in &f {
+        mesh.push_face(face);
+    }
+    mesh.colors = arrays::optional_colors(colors, v.len())?;
+    py.detach(|| rig::write_mesh(&path, &mesh, &rig::ply::WriteOptions::default())).map_err(errors::file)
+}

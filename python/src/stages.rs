@@ -1,0 +1,312 @@
+//! The stages as functions: keyword parameters with the command line's defaults, arrays in, arrays
+//! and a report dict out. Each checks its arrays, then runs the library's stage off the GIL.
+
+use crate::arrays::{self, Xyz};
+use crate::errors;
+use crate::run::interruptible;
+use ::process::pipeline::stages::{self, FuseParams, ReconstructParams};
+use ::process::reconstruct::{adfft::AdFftParams, global_fft::FftParams};
+use ::process::remesh::RemeshParams;
+use numpy::PyArray2;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use rig::math::{Point3, Vector3};
+use rig::{PointCloud, TriMesh};
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(fuse, m)?)?;
+    m.add_function(wrap_pyfunction!(reconstruct, m)?)?;
+    m.add_function(wrap_pyfunction!(remesh, m)?)?;
+    m.add_function(wrap_pyfunction!(icp, m)?)?;
+    m.add_function(wrap_pyfunction!(process_scan, m)?)?;
+    Ok(())
+}
+
+/// A mesh handed back: vertices (V×3), faces of type `F`, and the report.
+type Meshed<'py, F> = (Bound<'py, PyArray2<f64>>, F, Bound<'py, PyAny>);
+
+/// A report as a dict with the JSON report's keys.
+pub fn report<'py>(py: Python<'py>, r: &impl serde::Serialize) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_string(r).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    py.import("json")?.call_method1("loads", (text,))
+}
+
+/// Borrowed N×3 rows handed to a worker thread: the array object is held (so its buffer lives and,
+/// held, cannot be resized), and the rows are read in place.
+struct Rows {
+    ptr: *const Point3,
+    len: usize,
+    _owner: Py<PyAny>,
+}
+
+// SAFETY: the buffer belongs to a NumPy array kept alive by `_owner` for as long as `Rows` lives;
+// NumPy never moves the data of an array that is referenced (ndarray.resize refuses), and the worker
+// only reads it.
+unsafe impl Send for Rows {}
+
+impl Rows {
+    fn new(obj: &Bound<'_, PyAny>, xyz: &Xyz<'_>) -> Self {
+        let points = xyz.points();
+        Rows { ptr: points.as_ptr(), len: points.len(), _owner: obj.clone().unbind() }
+    }
+
+    fn points(&self) -> &[Point3] {
+        // SAFETY: see the `Send` impl; ptr/len came from a live `&[Point3]`.
+        unsafe { std::slice::from_raw_parts(self.ptr, self.len) }
+    }
+}
+
+/// A cloud from the arrays (copied: the stages own what they work on).
+fn cloud_from(
+    points: &Xyz<'_>,
+    normals: Option<&Xyz<'_>>,
+    colors: Option<Vec<[u8; 3]>>,
+    confidence: Option<Vec<f32>>,
+) -> PointCloud {
+    PointCloud {
+        positions: points.points().to_vec(),
+        normals: normals.map(|n| n.vectors().to_vec()),
+        colors,
+        confidence,
+        view_id: None,
+    }
+}
+
+fn cloud_out<'py>(py: Python<'py>, cloud: PointCloud) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("points", arrays::points_out(py, cloud.positions))?;
+    d.set_item("normals", cloud.normals.map(|n| arrays::vectors_out(py, n)))?;
+    d.set_item("colors", cloud.colors.map(|c| arrays::colors_out(py, c)))?;
+    d.set_item("confidence", cloud.confidence.map(|c| arrays::vec_out(py, c)))?;
+    Ok(d)
+}
+
+/// Mean-shift fusion of a registered cloud (thesis ch. 3, eqs. 3.2–3.10): noise removed by moving
+/// each sample to the nearest maximum of a likelihood of anisotropic kernels, samples at the same
+/// maximum merged, outliers dropped. Returns (cloud dict, kept mask, report).
+#[pyfunction]
+#[pyo3(signature = (points, normals=None, colors=None, confidence=None, *, k=None, kernel_spacing=None))]
+fn fuse<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    normals: Option<&Bound<'py, PyAny>>,
+    colors: Option<&Bound<'py, PyAny>>,
+    confidence: Option<&Bound<'py, PyAny>>,
+    k: Option<usize>,
+    kernel_spacing: Option<f64>,
+) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
+    let xyz = Xyz::extract(points, "points")?;
+    let n = xyz.len();
+    let nrm = arrays::optional_xyz(normals, "normals", n)?;
+    let cloud = cloud_from(
+        &xyz,
+        nrm.as_ref(),
+        arrays::optional_colors(colors, n)?,
+        arrays::optional_f32(confidence, "confidence", n)?,
+    );
+    let d = FuseParams::default();
+    let mut params = d;
+    if let Some(k) = k {
+        // The command line's check (`scanrig fuse --k`).
+        if k < 6 {
+            return Err(PyValueError::new_err(format!(
+                "k must be at least 6 (a kernel fits a plane to its neighbours), got {k}"
+            )));
+        }
+        params.mean_shift.k = k;
+    }
+    if let Some(s) = kernel_spacing {
+        if !(s >= 0.0 && s.is_finite()) {
+            return Err(PyValueError::new_err(format!("kernel_spacing must be 0 or a positive fraction, got {s}")));
+        }
+        params.mean_shift.kernel_spacing = s;
+    }
+    let (fused, r) = interruptible(py, move || stages::fuse(cloud, &params))?.map_err(errors::stage)?;
+    let kept = numpy::PyArray1::from_vec(py, fused.kept).into_any();
+    Ok((cloud_out(py, fused.cloud)?, kept, report(py, &r)?))
+}
+
+/// Watertight surface reconstruction from oriented points (thesis ch. 5): `method="fft"`, the
+/// global FFT solution of the Poisson equation for the indicator (eqs. 5.16–5.17) on a 2^depth
+/// grid, or `"adfft"`, local FFT solutions over an octree blended by a partition of unity (5.3).
+/// Returns (vertices, triangles, report).
+#[pyfunction]
+#[pyo3(signature = (points, normals, *, method="fft", depth=None, error=None, smoothing_cells=None, memory_budget_gb=None))]
+#[allow(clippy::too_many_arguments)]
+fn reconstruct<'py>(
+    py: Python<'py>,
+    points: &Bound<'py, PyAny>,
+    normals: &Bound<'py, PyAny>,
+    method: &str,
+    depth: Option<u32>,
+    error: Option<f64>,
+    smoothing_cells: Option<f64>,
+    memory_budget_gb: Option<f64>,
+) -> PyResult<Meshed<'py, Bound<'py, PyArray2<i64>>>> {
+    let xyz = Xyz::extract(points, "points")?;
+    let nrm = Xyz::extract(normals, "normals")?;
+    if nrm.len() != xyz.len() {
+        return Err(PyValueError::new_err(format!("normals: {} rows, but points has {}", nrm.len(), xyz.len())));
+    }
+    let budget = match memory_budget_gb {
+        Some(b) if !(b > 0.0 && b.is_finite()) => {
+            return Err(PyValueError::new_err(format!("memory_budget_gb must be a positive number of GB, got {b}")));
+        }
+        Some(b) => (b * 1e9) as u64,
+        None => FftParams::default().memory_budget,
+    };
+    let params = match method {
+        "fft" => {
+            if error.is_some() {
+                return Err(PyValueError::new_err(
+                    "error steers AdFFT's octree; the global method (method=\"fft\") has none",
+                ));
+            }
+            let d = FftParams::default();
+            ReconstructParams::Fft(FftParams {
+                depth: depth.unwrap_or(d.depth),
+                smoothing_cells: smoothing_cells.unwrap_or(d.smoothing_cells),
+                memory_budget: budget,
+                ..d
+            })
+        }
+        "adfft" => {
+            if smoothing_cells.is_some() {
+                return Err(PyValueError::new_err(
+                    "smoothing_cells is the global method's (method=\"fft\"); AdFFT smooths per octree cell",
+                ));
+            }
+            let d = AdFftParams::default();
+            ReconstructParams::Adfft(AdFftParams { depth: depth.unwrap_or(d.depth), error, memory_budget: budget, ..d })
+        }
+        other => return Err(PyValueError::new_err(format!("method must be \"fft\" or \"adfft\", got {other:?}"))),
+    };
+    let cloud = cloud_from(&xyz, Some(&nrm), None, None);
+    let (mesh, r) = interruptible(py, move || stages::reconstruct(&cloud, &params))?.map_err(errors::stage)?;
+    Ok((arrays::points_out(py, mesh.vertices), arrays::triangles_out(py, &mesh.faces), report(py, &r)?))
+}
+
+/// Quad remeshing of a triangle mesh (thesis ch. 6): a harmonic field constrained by feature lines,
+/// its streamlines in two families, and the quads they bound. Returns (vertices, faces as a list of
+/// index lists, report).
+#[pyfunction]
+#[pyo3(signature = (vertices, faces, *, spacing=None, features=None, weight=None))]
+fn remesh<'py>(
+    py: Python<'py>,
+    vertices: &Bound<'py, PyAny>,
+    faces: &Bound<'py, PyAny>,
+    spacing: Option<f64>,
+    features: Option<f64>,
+    weight: Option<f64>,
+) -> PyResult<Meshed<'py, Vec<Vec<u32>>>> {
+    let v = Xyz::extract(vertices, "vertices")?;
+    let f = arrays::faces(faces, v.len())?;
+    if f.iter().any(|t| t.len() != 3) {
+        return Err(PyValueError::new_err("faces: remesh takes triangles (F×3)"));
+    }
+    let mesh =
+        TriMesh { vertices: v.points().to_vec(), faces: f.iter().map(|t| [t[0], t[1], t[2]]).collect(), normals: None };
+    let d = RemeshParams::default();
+    if let Some(s) = spacing
+        && !(s > 0.0 && s.is_finite())
+    {
+        return Err(PyValueError::new_err(format!("spacing must be a positive distance, got {s}")));
+    }
+    let params = RemeshParams {
+        spacing,
+        feature_angle: match features {
+            Some(a) if a <= 0.0 => None,
+            Some(a) => Some(a),
+            None => d.feature_angle,
+        },
+        weight: weight.unwrap_or(d.weight),
+        ..d
+    };
+    let (quads, r) = interruptible(py, move || stages::remesh(&mesh, &params))?.map_err(errors::stage)?;
+    let faces: Vec<Vec<u32>> = quads.faces().map(|f| f.to_vec()).collect();
+    Ok((arrays::points_out(py, quads.vertices), faces, report(py, &r)?))
+}
+
+/// Point-to-plane ICP of `moving` onto `target` (thesis ch. 2.2), from `initial` (4×4, default the
+/// identity). `moving` is read in place when it is C-contiguous float64. Returns (4×4 transform,
+/// report).
+#[pyfunction]
+#[pyo3(signature = (moving, moving_normals, target, target_normals, *, initial=None, max_iterations=None, start_distance=None))]
+#[allow(clippy::too_many_arguments)]
+fn icp<'py>(
+    py: Python<'py>,
+    moving: &Bound<'py, PyAny>,
+    moving_normals: &Bound<'py, PyAny>,
+    target: &Bound<'py, PyAny>,
+    target_normals: &Bound<'py, PyAny>,
+    initial: Option<&Bound<'py, PyAny>>,
+    max_iterations: Option<usize>,
+    start_distance: Option<f64>,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyAny>)> {
+    use ::process::register::icp::{IcpParams, IcpTarget, icp as run_icp};
+    let m = Xyz::extract(moving, "moving")?;
+    let mn = Xyz::extract(moving_normals, "moving_normals")?;
+    let t = Xyz::extract(target, "target")?;
+    let tn = Xyz::extract(target_normals, "target_normals")?;
+    if mn.len() != m.len() || tn.len() != t.len() {
+        return Err(PyValueError::new_err("moving_normals and target_normals need one row per point"));
+    }
+    let start = match initial.filter(|o| !o.is_none()) {
+        None => rig::math::Isometry3::identity(),
+        Some(o) => isometry(o)?,
+    };
+    let d = IcpParams::default();
+    let params = IcpParams {
+        max_iterations: max_iterations.unwrap_or(d.max_iterations),
+        start_distance: start_distance.unwrap_or(d.start_distance),
+        ..d
+    };
+    let (rows, row_normals) = (Rows::new(moving, &m), Rows::new(moving_normals, &mn));
+    let target = IcpTarget::new(t.points().to_vec(), tn.vectors().to_vec(), None);
+    let result = interruptible(py, move || {
+        let normals: &[Vector3] = bytemuck::cast_slice(row_normals.points());
+        run_icp(rows.points(), normals, &target, &start, &params)
+    })?;
+    let (pose, r) = result.map_err(errors::stage)?;
+    let m4 = pose.to_homogeneous();
+    let flat: Vec<f64> = (0..4).flat_map(|i| (0..4).map(move |j| m4[(i, j)])).collect();
+    let out = numpy::ndarray::Array2::from_shape_vec((4, 4), flat).expect("4×4");
+    Ok((numpy::IntoPyArray::into_pyarray(out, py), report(py, &r)?))
+}
+
+/// A rigid 4×4 transform argument.
+fn isometry(obj: &Bound<'_, PyAny>) -> PyResult<rig::math::Isometry3> {
+    use numpy::{PyReadonlyArray2, PyUntypedArrayMethods};
+    let a: PyReadonlyArray2<'_, f64> =
+        obj.extract().map_err(|_| PyValueError::new_err("initial: expected a 4×4 numpy array of float64"))?;
+    if a.shape() != [4, 4] {
+        return Err(PyValueError::new_err(format!("initial: expected 4×4, got {:?}", a.shape())));
+    }
+    let a = a.as_array();
+    let r = rig::math::Matrix3::from_fn(|i, j| a[(i, j)]);
+    // Only a rotation and a translation: a scaled or sheared matrix is refused, not silently fixed.
+    if (r.transpose() * r - rig::math::Matrix3::identity()).norm() > 1e-6 || (r.determinant() - 1.0).abs() > 1e-6 {
+        return Err(PyValueError::new_err("initial: the upper 3×3 block is not a rotation"));
+    }
+    let rotation = rig::math::UnitQuaternion::from_matrix(&r);
+    Ok(rig::math::Isometry3::from_parts(rig::math::Translation3::new(a[(0, 3)], a[(1, 3)], a[(2, 3)]), rotation))
+}
+
+/// Processes a scan folder as `scanrig process` does (decode or find lines, triangulate, denoise,
+/// merge, register, fuse, close, reconstruct, remesh), writing into `out` (default SCAN/processed);
+/// resumes where an earlier run stopped. Returns the report.
+#[pyfunction(name = "process")]
+#[pyo3(signature = (scan, out=None, *, force=false))]
+fn process_scan<'py>(
+    py: Python<'py>,
+    scan: std::path::PathBuf,
+    out: Option<std::path::PathBuf>,
+    force: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let out = out.unwrap_or_else(|| scan.join("processed"));
+    let params = ::process::pipeline::ProcessParams { force, ..Default::default() };
+    let r = interruptible(py, move || ::process::pipeline::process_scan(&scan, &out, &params, |_, _, _| {}))?
+        .map_err(errors::stage)?;
+    report(py, &r)
+}

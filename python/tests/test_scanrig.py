@@ -1,0 +1,203 @@
+"""The Python bindings against ground truth and against the command line on the same inputs.
+
+Real data from ../shared/data (the Stanford bunny, fandisk); a simulated scan from `scanrig sim`.
+The CLI binary is SCANRIG_CLI, else target/debug/scanrig or target/release/scanrig beside this
+checkout; tests that need it or the data skip, saying so.
+"""
+
+import os
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import scanrig
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+DATA = ROOT.parent / "shared" / "data"
+BUNNY = DATA / "stanford-bunny"
+
+
+def cli():
+    for c in [os.environ.get("SCANRIG_CLI"), ROOT / "target/debug/scanrig", ROOT / "target/release/scanrig"]:
+        if c and pathlib.Path(c).exists():
+            return str(c)
+    pytest.skip("SKIPPED: no scanrig binary (cargo build, or set SCANRIG_CLI)")
+
+
+def need(path):
+    if not path.exists():
+        pytest.skip(f"SKIPPED: {path} is absent (../shared/data)")
+    return path
+
+
+def run(*args):
+    r = subprocess.run([cli(), *map(str, args)], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    return r
+
+
+@pytest.fixture(scope="module")
+def bunny_fused(tmp_path_factory):
+    """The bunny's zippered vertices fused by the bindings (points with normals)."""
+    src = need(BUNNY / "reconstruction/bun_zipper_res2.ply")
+    cloud = scanrig.read_cloud(src)
+    # Everything the file holds, as the CLI reads it: the zippered bunny has confidences.
+    fused, kept, report = scanrig.fuse(cloud["points"], cloud["normals"], cloud["colors"], cloud["confidence"])
+    return fused, kept, report
+
+
+def test_clouds_and_meshes_round_trip_through_files(tmp_path):
+    mesh = scanrig.read_mesh(need(BUNNY / "reconstruction/bun_zipper.ply"))
+    # bun_zipper.ply: 35947 vertices, 69451 triangles (its header).
+    assert mesh["vertices"].shape == (35947, 3) and mesh["vertices"].dtype == np.float64
+    assert mesh["triangles"].shape == (69451, 3)
+    for ext in ["ply", "obj", "stl", "glb"]:
+        out = tmp_path / f"bunny.{ext}"
+        scanrig.write_mesh(out, mesh["vertices"], mesh["triangles"])
+        back = scanrig.read_mesh(out)
+        assert back["triangles"].shape[0] == 69451, ext
+        # Written as float32: within its rounding of the bunny's 0.1 m extent.
+        bb = lambda v: (v.min(axis=0), v.max(axis=0))
+        assert np.allclose(bb(back["vertices"])[0], bb(mesh["vertices"])[0], atol=1e-6), ext
+    cloud = scanrig.read_cloud(need(BUNNY / "data/bun000.ply"))
+    colours = (np.arange(len(cloud["points"]) * 3) % 256).astype(np.uint8).reshape(-1, 3)
+    scanrig.write_cloud(tmp_path / "c.ply", cloud["points"], colors=colours)
+    back = scanrig.read_cloud(tmp_path / "c.ply")
+    assert np.array_equal(back["colors"], colours)
+    assert np.allclose(back["points"], cloud["points"], atol=1e-6)
+
+
+def test_fuse_equals_the_cli(tmp_path, bunny_fused):
+    fused, kept, report = bunny_fused
+    src = BUNNY / "reconstruction/bun_zipper_res2.ply"
+    run("fuse", src, "-o", tmp_path / "f.ply")
+    theirs = scanrig.read_cloud(tmp_path / "f.ply")
+    assert report["points_out"] == len(fused["points"]) == len(theirs["points"])
+    assert kept.dtype == np.bool_ and kept.sum() <= len(kept)
+    # The CLI's file holds float32: the same points to its rounding.
+    assert np.abs(fused["points"] - theirs["points"]).max() < 1e-6
+    assert fused["normals"].shape == fused["points"].shape
+
+
+def test_reconstruct_equals_the_cli_and_is_near_the_zippered_surface(tmp_path, bunny_fused):
+    fused, _, _ = bunny_fused
+    v, f, report = scanrig.reconstruct(fused["points"], fused["normals"], depth=7)
+    assert report["method"] == "fft" and report["n"] == 128
+    scanrig.write_cloud(tmp_path / "in.ply", fused["points"], fused["normals"])
+    run("reconstruct", tmp_path / "in.ply", "-o", tmp_path / "m.ply", "--depth", "7")
+    theirs = scanrig.read_mesh(tmp_path / "m.ply")
+    # The CLI reads the float32 file: the same mesh up to that rounding.
+    assert abs(len(theirs["vertices"]) - len(v)) <= len(v) // 1000
+    # Against the truth: every zippered-bunny vertex within two grid cells of the mesh's vertices.
+    truth = scanrig.read_mesh(need(BUNNY / "reconstruction/bun_zipper.ply"))["vertices"]
+    cell = report["cell"]
+    sample = truth[:: max(1, len(truth) // 2000)]
+    d = np.sqrt(((sample[:, None, :] - v[None, :: max(1, len(v) // 4000), :]) ** 2).sum(-1)).min(axis=1)
+    assert np.median(d) < 2 * cell, (np.median(d), cell)
+
+
+def test_remesh_equals_the_cli(tmp_path):
+    src = need(DATA / "common-3d-test-models/fandisk.obj")
+    mesh = scanrig.read_mesh(src)
+    v, faces, report = scanrig.remesh(mesh["vertices"], mesh["triangles"])
+    run("remesh", src, "-o", tmp_path / "q.obj")
+    theirs = scanrig.read_mesh(tmp_path / "q.obj")
+    assert len(faces) == len(theirs["faces"]), (len(faces), len(theirs["faces"]))
+    assert report["streamlines"] > 0
+    quads = sum(1 for f in faces if len(f) == 4) / len(faces)
+    assert quads > 0.9, quads
+
+
+def test_icp_recovers_a_known_motion(bunny_fused):
+    fused, _, _ = bunny_fused
+    p, n = fused["points"], fused["normals"]
+    angle = np.radians(2.0)
+    r = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    t = np.array([0.002, -0.001, 0.001])
+    moving = np.ascontiguousarray(p @ r.T + t)
+    moving_n = np.ascontiguousarray(n @ r.T)
+    pose, report = scanrig.icp(moving, moving_n, p, n)
+    # The pose maps moving back onto the target: the inverse motion.
+    back = moving @ pose[:3, :3].T + pose[:3, 3]
+    assert np.abs(back - p).max() < 1e-4, (np.abs(back - p).max(), report)
+    assert report["iterations"] >= 1
+
+
+def test_wrong_arrays_are_python_errors_never_crashes():
+    good = np.zeros((10, 3))
+    with pytest.raises(ValueError, match="points: expected N×3"):
+        scanrig.fuse(np.zeros((10, 2)))
+    with pytest.raises(TypeError, match="points: expected a 2-D numpy array of float64"):
+        scanrig.fuse(np.zeros((10, 3), dtype=np.float32))
+    with pytest.raises(TypeError, match="points"):
+        scanrig.fuse([[0.0, 0.0, 0.0]])
+    with pytest.raises(ValueError, match="normals: 9 rows, but points has 10"):
+        scanrig.reconstruct(good, np.zeros((9, 3)))
+    with pytest.raises(ValueError, match="method must be"):
+        scanrig.reconstruct(good, good, method="poisson")
+    with pytest.raises(ValueError, match="faces: face 0 names vertex 10"):
+        scanrig.write_mesh("/nonexistent/x.ply", good, np.array([[0, 1, 10]]))
+    with pytest.raises(ValueError, match="k must be at least 6"):
+        scanrig.fuse(good, k=3)
+    # A strided (Fortran-order) array is accepted, read as its values.
+    fortran = np.asfortranarray(np.random.default_rng(1).normal(size=(200, 3)))
+    fused, _, _ = scanrig.fuse(fortran)
+    assert fused["points"].shape[1] == 3
+    # The library's refusals are ScanrigErrors with its message.
+    with pytest.raises(scanrig.StageError, match="points"):
+        scanrig.fuse(np.zeros((3, 3)))
+    with pytest.raises(scanrig.FileError, match="nothing-here.ply"):
+        scanrig.read_cloud("/nothing-here.ply")
+    with pytest.raises(scanrig.StageError, match="not finite|NaN|finite"):
+        scanrig.reconstruct(np.full((100, 3), np.nan), np.ones((100, 3)))
+
+
+def test_process_equals_the_cli_on_a_simulated_scan(tmp_path):
+    scan = tmp_path / "scan"
+    run("sim", "--views", "4", "--resolution", "160x128", "--out", scan)
+    report = scanrig.process(scan, tmp_path / "py")
+    run("process", scan, "-o", tmp_path / "cli")
+    assert [s["stage"] for s in report["stages"]][:2] == ["views", "merge"]
+    for name in ["merged.ply", "fused.ply", "mesh.ply"]:
+        ours, theirs = (tmp_path / "py" / name), (tmp_path / "cli" / name)
+        if theirs.exists():
+            assert ours.read_bytes() == theirs.read_bytes(), name
+
+
+def test_contiguous_float64_is_read_in_place_and_strided_arrays_are_gathered():
+    from scanrig import _scanrig
+
+    a = np.random.default_rng(2).normal(size=(3000, 3))
+    assert _scanrig._read_address(a) == a.ctypes.data
+    f = np.asfortranarray(a)
+    assert _scanrig._read_address(f) != f.ctypes.data
+    # Read as its values, not its buffer: the same fused result as the C-ordered copy.
+    c_fused, _, _ = scanrig.fuse(a)
+    f_fused, _, _ = scanrig.fuse(f)
+    assert np.array_equal(c_fused["points"], f_fused["points"])
+
+
+def test_a_long_call_stops_at_ctrl_c(bunny_fused):
+    import signal
+    import time
+
+    fused, _, _ = bunny_fused
+    pts = np.ascontiguousarray(np.tile(fused["points"], (40, 1)) + np.repeat(np.arange(40), len(fused["points"]))[:, None] * 1e-5)
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGALRM, interrupt)
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 0.3)
+        start = time.monotonic()
+        with pytest.raises(KeyboardInterrupt):
+            scanrig.fuse(pts, k=64)
+        waited = time.monotonic() - start
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+    # The fusion of 240 K points takes seconds; the call gave up within a poll of the signal.
+    assert waited < 1.5, waited
