@@ -165,8 +165,7 @@ fn print_report(args: &SimArgs, report: &sim::ScanReport) -> Result<()> {
     Ok(())
 }
 
-/// The object on the platter: a mesh file (its vertex colours, where it has them, as the albedo) or
-/// the built-in fluted vase.
+/// The object on the platter ([`sim::object_on_platter`]) with the command line's up axis.
 pub fn object_on_platter(
     cfg: &SimConfig,
     mesh: Option<&std::path::Path>,
@@ -174,31 +173,6 @@ pub fn object_on_platter(
     up: Up,
     offset: rig::Vector3,
 ) -> Result<(rig::TriMesh, Albedo)> {
-    Ok(match mesh {
-        Some(path) => {
-            let mesh = rig::read_mesh(path)?;
-            let up = if up == Up::Z { UpAxis::Z } else { UpAxis::Y };
-            let placed = sim::place_on_platter(&mesh, size, up, offset);
-            let colors = if rig::MeshFormat::of(path) == Some(rig::MeshFormat::Ply) {
-                rig::ply::read_cloud(path)?.colors
-            } else {
-                None
-            };
-            let albedo = match colors {
-                Some(c) => Albedo::PerVertex {
-                    faces: placed.faces.clone(),
-                    values: c
-                        .iter()
-                        .map(|p| (0.299 * p[0] as f64 + 0.587 * p[1] as f64 + 0.114 * p[2] as f64) / 255.0)
-                        .collect(),
-                },
-                None => Albedo::Constant(cfg.scene.object_albedo),
-            };
-            (placed, albedo)
-        }
-        None => {
-            let vase = sim::place_on_platter(&sim::fluted_vase(size).to_poly(), size, UpAxis::Z, offset);
-            (vase, Albedo::Constant(cfg.scene.object_albedo))
-        }
-    })
+    let up = if up == Up::Z { UpAxis::Z } else { UpAxis::Y };
+    Ok(sim::object_on_platter(cfg, mesh, size, up, offset)?)
 }

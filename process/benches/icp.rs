@@ -5,7 +5,7 @@
 
 use process::icp::{IcpParams, IcpTarget, icp};
 use process::normals::{PointTree, pca_normals};
-use rig::math::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+use rig::math::{Point3, Vector3};
 use std::time::Instant;
 
 fn main() {
@@ -21,22 +21,17 @@ fn main() {
     let fnorm = pca_normals(&fp, &PointTree::new(&fp), 10, |_| Vector3::z()).iter().map(|n| pf.rotation * n).collect();
     let target = IcpTarget::new(fixed, fnorm, Some(fb));
     let setup = t0.elapsed().as_secs_f64() * 1e3;
-    let c = mp.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / mp.len() as f64;
-    let c = pm * Point3::from(c);
-    let perturb = Isometry3::from_parts(
-        Translation3::from(c.coords + Vector3::new(5.0, -4.0, 3.0)),
-        UnitQuaternion::from_scaled_axis(Vector3::new(0.3, 1.0, -0.4).normalize() * 10f64.to_radians()),
-    ) * Translation3::from(-c.coords);
+    let start = fixtures::icp_bench_start(&mp, &pm);
     let mut times: Vec<f64> = (0..15)
         .map(|_| {
             let s = Instant::now();
-            let r = icp(&mp, &mn, &target, &(perturb * pm), &IcpParams::default()).unwrap();
+            let r = icp(&mp, &mn, &target, &start, &IcpParams::default()).unwrap();
             std::hint::black_box(r);
             s.elapsed().as_secs_f64() * 1e3
         })
         .collect();
     times.sort_by(f64::total_cmp);
-    let (est, report) = icp(&mp, &mn, &target, &(perturb * pm), &IcpParams::default()).unwrap();
+    let (est, report) = icp(&mp, &mn, &target, &start, &IcpParams::default()).unwrap();
     let err = (est.rotation.inverse() * pm.rotation).angle().to_degrees();
     println!(
         "bun045 → bun000: {:.1} ms per registration (median of 15; {} iterations, fitness {:.2}, rotation error {err:.3}°)",

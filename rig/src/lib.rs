@@ -69,7 +69,7 @@ pub use sparse_view::SparseView;
 
 /// Point clouds and bounding boxes.
 pub mod point_cloud;
-pub use point_cloud::{Aabb, PointCloud};
+pub use point_cloud::{Aabb, CloudRef, PointCloud};
 
 /// Triangle and polygon meshes.
 pub mod mesh;

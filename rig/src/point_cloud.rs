@@ -18,6 +18,62 @@ pub struct PointCloud {
     pub view_id: Option<Vec<u32>>,
 }
 
+/// A cloud borrowed from arrays that live elsewhere (a caller's buffers, NumPy's): what the stages
+/// that only read a cloud take, so such a caller's points are used where they lie, not copied.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct CloudRef<'a> {
+    /// Positions.
+    pub positions: &'a [Point3],
+    /// Normals, one per position.
+    pub normals: Option<&'a [Vector3]>,
+    /// Colours, one per position.
+    pub colors: Option<&'a [[u8; 3]]>,
+    /// Confidences, one per position.
+    pub confidence: Option<&'a [f32]>,
+    /// View ids, one per position.
+    pub view_id: Option<&'a [u32]>,
+}
+
+impl<'a> CloudRef<'a> {
+    /// Bare positions.
+    pub fn positions(positions: &'a [Point3]) -> Self {
+        CloudRef { positions, ..Default::default() }
+    }
+
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// True for a cloud without points.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// The points at `indices`, in that order, with all their attributes, as an owned cloud.
+    ///
+    /// # Panics
+    /// If an index is out of range.
+    pub fn select(&self, indices: &[usize]) -> PointCloud {
+        fn pick<T: Copy>(v: Option<&[T]>, indices: &[usize]) -> Option<Vec<T>> {
+            v.map(|v| indices.iter().map(|&i| v[i]).collect())
+        }
+        PointCloud {
+            positions: indices.iter().map(|&i| self.positions[i]).collect(),
+            normals: pick(self.normals, indices),
+            colors: pick(self.colors, indices),
+            confidence: pick(self.confidence, indices),
+            view_id: pick(self.view_id, indices),
+        }
+    }
+}
+
+impl<'a> From<&'a PointCloud> for CloudRef<'a> {
+    fn from(cloud: &'a PointCloud) -> Self {
+        cloud.borrowed()
+    }
+}
+
 impl PointCloud {
     /// A cloud of bare positions.
     pub fn from_positions(positions: Vec<Point3>) -> Self {
@@ -44,15 +100,17 @@ impl PointCloud {
     /// # Panics
     /// If an index is out of range.
     pub fn select(&self, indices: &[usize]) -> PointCloud {
-        fn pick<T: Copy>(v: &Option<Vec<T>>, indices: &[usize]) -> Option<Vec<T>> {
-            v.as_ref().map(|v| indices.iter().map(|&i| v[i]).collect())
-        }
-        PointCloud {
-            positions: indices.iter().map(|&i| self.positions[i]).collect(),
-            normals: pick(&self.normals, indices),
-            colors: pick(&self.colors, indices),
-            confidence: pick(&self.confidence, indices),
-            view_id: pick(&self.view_id, indices),
+        self.borrowed().select(indices)
+    }
+
+    /// The cloud borrowed, attribute by attribute.
+    pub fn borrowed(&self) -> CloudRef<'_> {
+        CloudRef {
+            positions: &self.positions,
+            normals: self.normals.as_deref(),
+            colors: self.colors.as_deref(),
+            confidence: self.confidence.as_deref(),
+            view_id: self.view_id.as_deref(),
         }
     }
 

@@ -34,6 +34,37 @@ pub fn place_on_platter(mesh: &PolyMesh, size_mm: Real, up: UpAxis, offset: Vect
     tri
 }
 
+/// The object on the platter, as `scanrig sim` and `scan --simulate` place it: a mesh file scaled to
+/// `size_mm` (its PLY vertex colours, where it has them, as the albedo: their luma) or, without a file,
+/// the built-in fluted vase, with the config's constant albedo.
+pub fn object_on_platter(
+    cfg: &crate::SimConfig,
+    mesh: Option<&std::path::Path>,
+    size_mm: Real,
+    up: UpAxis,
+    offset: Vector3,
+) -> Result<(TriMesh, crate::Albedo), rig::Error> {
+    use crate::Albedo;
+    let Some(path) = mesh else {
+        let vase = place_on_platter(&fluted_vase(size_mm).to_poly(), size_mm, UpAxis::Z, offset);
+        return Ok((vase, Albedo::Constant(cfg.scene.object_albedo)));
+    };
+    let placed = place_on_platter(&rig::read_mesh(path)?, size_mm, up, offset);
+    let colors =
+        if rig::MeshFormat::of(path) == Some(rig::MeshFormat::Ply) { rig::ply::read_cloud(path)?.colors } else { None };
+    let albedo = match colors {
+        Some(c) => Albedo::PerVertex {
+            faces: placed.faces.clone(),
+            values: c
+                .iter()
+                .map(|p| (0.299 * p[0] as Real + 0.587 * p[1] as Real + 0.114 * p[2] as Real) / 255.0)
+                .collect(),
+        },
+        None => Albedo::Constant(cfg.scene.object_albedo),
+    };
+    Ok((placed, albedo))
+}
+
 /// The built-in object: a fluted vase `height_mm` tall, standing on the platter centre (object frame).
 ///
 /// Five concave flutes, a waist and a lip give self-occlusion and shadows from every side, so a scan

@@ -244,10 +244,12 @@ pub struct MeanShiftResult {
 }
 
 /// Fuses a cloud (see the module doc).
-pub fn mean_shift(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResult {
+pub fn mean_shift<'a>(cloud: impl Into<rig::CloudRef<'a>>, params: &MeanShiftParams) -> MeanShiftResult {
+    let cloud = cloud.into();
     // Every step is per-point neighbourhood work: in Morton order it stays cache-local, so time
-    // grows linearly with the cloud (BENCHMARKS.md, mean shift scaling).
-    let order = crate::spatial_order::morton_order(&cloud.positions);
+    // grows linearly with the cloud (BENCHMARKS.md, mean shift scaling). The ordered copy is made
+    // from the borrowed arrays directly: a caller's buffers are read once, not copied first.
+    let order = crate::spatial_order::morton_order(cloud.positions);
     in_input_order(mean_shift_in_order(&cloud.select(&order), params), &order)
 }
 

@@ -537,14 +537,33 @@ impl Fused {
 
 /// Fuses a cloud (see [`FuseParams`]).
 pub fn fuse(cloud: PointCloud, params: &FuseParams) -> Result<(Fused, FuseReport), StageError> {
-    check_finite(&cloud)?;
+    check_fusable(cloud.borrowed(), params)?;
+    let had_normals = cloud.normals.is_some();
+    // Owned: fusion's Morton-ordered copy replaces the input instead of sitting beside it.
+    fused(crate::mean_shift::mean_shift_owned(cloud, &params.mean_shift), had_normals, params)
+}
+
+/// [`fuse`] of a borrowed cloud (a caller's arrays): its Morton-ordered working copy is the only one.
+pub fn fuse_borrowed(cloud: rig::CloudRef<'_>, params: &FuseParams) -> Result<(Fused, FuseReport), StageError> {
+    check_fusable(cloud, params)?;
+    fused(crate::mean_shift::mean_shift(cloud, &params.mean_shift), cloud.normals.is_some(), params)
+}
+
+fn check_fusable(cloud: rig::CloudRef<'_>, params: &FuseParams) -> Result<(), StageError> {
+    check_finite(cloud)?;
     let k = params.mean_shift.k;
     if cloud.len() <= k.max(params.mean_shift.density_k) {
         return Err(StageError::TooFewPoints { points: cloud.len(), k });
     }
-    let had_normals = cloud.normals.is_some();
-    // Owned: fusion's Morton-ordered copy replaces the input instead of sitting beside it.
-    let mut result = crate::mean_shift::mean_shift_owned(cloud, &params.mean_shift);
+    Ok(())
+}
+
+/// Fusion's result oriented where the input had no normals, and its report.
+fn fused(
+    mut result: crate::mean_shift::MeanShiftResult,
+    had_normals: bool,
+    params: &FuseParams,
+) -> Result<(Fused, FuseReport), StageError> {
     let mut oriented_parts = None;
     if !had_normals && let Some(normals) = result.cloud.normals.as_mut() {
         oriented_parts =
@@ -613,7 +632,11 @@ impl ReconstructReport {
 }
 
 /// A watertight mesh of an oriented cloud.
-pub fn reconstruct(cloud: &PointCloud, params: &ReconstructParams) -> Result<(TriMesh, ReconstructReport), StageError> {
+pub fn reconstruct<'a>(
+    cloud: impl Into<rig::CloudRef<'a>>,
+    params: &ReconstructParams,
+) -> Result<(TriMesh, ReconstructReport), StageError> {
+    let cloud = cloud.into();
     check_finite(cloud)?;
     let (mesh, report) = match params {
         ReconstructParams::Fft(p) => {
@@ -755,13 +778,13 @@ pub fn check_support(mesh: &TriMesh, cloud: &PointCloud, force: bool) -> Result<
 
 /// Refuses a cloud with a NaN or infinite position or normal (every later distance would be NaN) or
 /// a zero normal.
-fn check_finite(cloud: &PointCloud) -> Result<(), StageError> {
+fn check_finite(cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
     let bad_point = cloud.positions.iter().position(|p| !p.coords.iter().all(|x| x.is_finite()));
-    let bad_normal = cloud.normals.as_ref().and_then(|n| n.iter().position(|v| !v.iter().all(|x| x.is_finite())));
+    let bad_normal = cloud.normals.and_then(|n| n.iter().position(|v| !v.iter().all(|x| x.is_finite())));
     if let Some(index) = bad_point.into_iter().chain(bad_normal).min() {
         return Err(StageError::NonFinite { index });
     }
-    if let Some(n) = &cloud.normals {
+    if let Some(n) = cloud.normals {
         let zero: Vec<usize> = (0..n.len()).filter(|&i| n[i].norm_squared() <= 1e-24).collect();
         if let Some(&index) = zero.first() {
             return Err(StageError::ZeroNormal { index, count: zero.len() });

@@ -27,8 +27,8 @@ use super::mesh_distance::MeshDistance;
 use super::prune::prune_small_components;
 use crate::normals::PointTree;
 use rayon::prelude::*;
+use rig::TriMesh;
 use rig::math::{Point3, Real, Vector3};
-use rig::{PointCloud, TriMesh};
 use serde::Serialize;
 use std::time::Instant;
 
@@ -384,15 +384,16 @@ fn solve_leaf(samples: &Samples, cell: &Cell, params: &AdFftParams, origin: &Poi
 }
 
 /// Reconstructs a watertight mesh by AdFFT.
-pub fn reconstruct_adfft(
-    cloud: &PointCloud,
+pub fn reconstruct_adfft<'a>(
+    cloud: impl Into<rig::CloudRef<'a>>,
     params: &AdFftParams,
 ) -> Result<(TriMesh, AdFftReport), super::global_fft::ReconstructError> {
+    let cloud = cloud.into();
     use super::global_fft::ReconstructError;
     if cloud.is_empty() {
         return Err(ReconstructError::Empty);
     }
-    let normals = cloud.normals.as_ref().ok_or(ReconstructError::NoNormals)?;
+    let normals = cloud.normals.ok_or(ReconstructError::NoNormals)?;
     if !(6..=12).contains(&params.depth) || !(3..=7).contains(&params.test_depth) {
         return Err(ReconstructError::Params(format!(
             "AdFFT depth must be 6–12 and test depth 3–7, got {} and {}",
@@ -401,15 +402,15 @@ pub fn reconstruct_adfft(
     }
     let start = Instant::now();
     let n = 1usize << params.depth;
-    let (origin, size) = bounding_cube(&cloud.positions, params.padding);
+    let (origin, size) = bounding_cube(cloud.positions, params.padding);
     let h = size / n as Real;
     let error = params.error.unwrap_or(0.5 * h);
     let mut report = AdFftReport { n, cell: h, error, ..Default::default() };
     let samples = Samples {
-        positions: &cloud.positions,
+        positions: cloud.positions,
         normals,
-        weights: area_weights(&cloud.positions, params.area_k),
-        tree: PointTree::new(&cloud.positions),
+        weights: area_weights(cloud.positions, params.area_k),
+        tree: PointTree::new(cloud.positions),
     };
     // Octree: unconditional splits down to the depth where a leaf's local grid is at most 128³, then
     // the error test; leaves stop where the local grid would drop below the test's resolution.
@@ -437,7 +438,7 @@ pub fn reconstruct_adfft(
         let mut next = Vec::new();
         for (cell, split_it) in level.into_iter().zip(decisions) {
             if split_it {
-                next.extend(split(&cell, &cloud.positions));
+                next.extend(split(&cell, cloud.positions));
             } else {
                 leaves.push(cell);
             }
@@ -461,7 +462,7 @@ pub fn reconstruct_adfft(
     let coarse_n = 1usize << params.coarse_depth.min(params.depth);
     let coarse_cube = Cube { origin, size, n: coarse_n };
     let mut scratch = FftReport::default();
-    let coarse = indicator(&cloud.positions, normals, &samples.weights, &coarse_cube, 1.0, &mut scratch);
+    let coarse = indicator(cloud.positions, normals, &samples.weights, &coarse_cube, 1.0, &mut scratch);
     let coarse_iso =
         cloud.positions.par_iter().map(|p| sample(&coarse, coarse_n, origin, coarse_cube.cell(), p)).sum::<Real>()
             / cloud.len() as Real;

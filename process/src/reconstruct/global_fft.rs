@@ -14,8 +14,8 @@ use super::fft3::RealFft3;
 use super::marching_cubes::{GridFrame, marching_cubes};
 use crate::normals::PointTree;
 use rayon::prelude::*;
+use rig::TriMesh;
 use rig::math::{Point3, Real, Vector3};
-use rig::{PointCloud, TriMesh};
 use rustfft::num_complex::Complex32;
 use serde::Serialize;
 use std::time::Instant;
@@ -380,27 +380,31 @@ pub fn iso_level(chi: &[f32], cube: &Cube, points: &[Point3], weights: &[Real]) 
 }
 
 /// Reconstructs a watertight mesh from an oriented cloud by the global FFT method.
-pub fn reconstruct_fft(cloud: &PointCloud, params: &FftParams) -> Result<(TriMesh, FftReport), ReconstructError> {
+pub fn reconstruct_fft<'a>(
+    cloud: impl Into<rig::CloudRef<'a>>,
+    params: &FftParams,
+) -> Result<(TriMesh, FftReport), ReconstructError> {
+    let cloud = cloud.into();
     if cloud.is_empty() {
         return Err(ReconstructError::Empty);
     }
-    let normals = cloud.normals.as_ref().ok_or(ReconstructError::NoNormals)?;
+    let normals = cloud.normals.ok_or(ReconstructError::NoNormals)?;
     if !(2..=11).contains(&params.depth) {
         return Err(ReconstructError::Params(format!("depth must be 2–11, got {}", params.depth)));
     }
     let need = grid_bytes(params.depth);
     let n = 1usize << params.depth;
     check_memory(need, n, params.memory_budget, "--method fft")?;
-    let (origin, size) = bounding_cube(&cloud.positions, params.padding);
+    let (origin, size) = bounding_cube(cloud.positions, params.padding);
     let cell = size / n as Real;
     let mut report = FftReport { n, cell, grid_bytes: need, ..Default::default() };
     let t = Instant::now();
-    let weights = area_weights(&cloud.positions, params.area_k);
+    let weights = area_weights(cloud.positions, params.area_k);
     report.seconds_splat += t.elapsed().as_secs_f64();
     let cube = Cube { origin, size, n };
-    let chi = indicator(&cloud.positions, normals, &weights, &cube, params.smoothing_cells, &mut report);
+    let chi = indicator(cloud.positions, normals, &weights, &cube, params.smoothing_cells, &mut report);
     let t = Instant::now();
-    let iso = iso_level(&chi, &cube, &cloud.positions, &weights);
+    let iso = iso_level(&chi, &cube, cloud.positions, &weights);
     report.iso = iso;
     let frame = GridFrame { dims: [n; 3], origin, spacing: cell };
     // The grid's outer layer counts as outside, so the surface is closed even where an open scan lets
@@ -418,6 +422,7 @@ pub fn reconstruct_fft(cloud: &PointCloud, params: &FftParams) -> Result<(TriMes
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use rig::PointCloud;
     use rig::topology::topology;
 
     /// Points on a sphere of radius r (Fibonacci lattice) with outward normals.

@@ -135,6 +135,25 @@ pub enum IcpError {
     /// The correspondences do not constrain all six degrees of freedom (a plane, a line).
     #[error("the correspondences leave the pose undetermined (degenerate geometry)")]
     Degenerate,
+    /// A point or normal that is not a finite number: no nearest neighbour or pose can come of it.
+    #[error("{which} {index} is not finite (NaN or infinite): drop such points before registering")]
+    NonFinite {
+        /// Which input: "moving point", "moving normal", "target point", "target normal".
+        which: &'static str,
+        /// Its index.
+        index: usize,
+    },
+    /// Target points and normals differ in number.
+    #[error("{points} target points but {normals} normals")]
+    TargetLengthMismatch {
+        /// Points.
+        points: usize,
+        /// Normals.
+        normals: usize,
+    },
+    /// A target without points.
+    #[error("the target has no points")]
+    EmptyTarget,
     /// Moving points and normals differ in number.
     #[error("{points} moving points but {normals} normals")]
     LengthMismatch {
@@ -168,6 +187,23 @@ pub fn icp_near(
 ) -> Result<(Isometry3, IcpReport), IcpError> {
     if moving.len() != moving_normals.len() {
         return Err(IcpError::LengthMismatch { points: moving.len(), normals: moving_normals.len() });
+    }
+    if target.points.is_empty() {
+        return Err(IcpError::EmptyTarget);
+    }
+    if target.normals.len() != target.points.len() {
+        return Err(IcpError::TargetLengthMismatch { points: target.points.len(), normals: target.normals.len() });
+    }
+    // The k-d tree's search cannot order NaN distances; such input is refused, not searched.
+    let finite = |v: &Vector3| v.iter().all(|c| c.is_finite());
+    let inputs: [(&'static str, Option<usize>); 4] = [
+        ("moving point", moving.iter().position(|p| !finite(&p.coords))),
+        ("moving normal", moving_normals.iter().position(|n| !finite(n))),
+        ("target point", target.points.iter().position(|p| !finite(&p.coords))),
+        ("target normal", target.normals.iter().position(|n| !finite(n))),
+    ];
+    if let Some((which, Some(index))) = inputs.into_iter().find(|(_, i)| i.is_some()) {
+        return Err(IcpError::NonFinite { which, index });
     }
     let stride = if params.sample == 0 { 1 } else { moving.len().div_ceil(params.sample).max(1) };
     let sample: Vec<usize> = (0..moving.len()).step_by(stride).collect();
