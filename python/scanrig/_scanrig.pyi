@@ -80,3 +80,103 @@ def icp(
 
 def process(scan: _Path, out: Optional[_Path] = None, *, force: bool = False) -> dict[str, Any]:
     """Processes a scan folder as `scanrig process` does; returns its report."""
+
+_Grid = dict[str, Any]
+_Image = npt.NDArray[np.uint8]
+
+def read_image(path: _Path) -> _Image:
+    """Reads a PNG or JPEG: H×W uint8 (grey) or H×W×3 (colour)."""
+
+def write_image(path: _Path, image: _Image) -> None:
+    """Writes an H×W or H×W×3 uint8 image: PNG, or JPEG for .jpg/.jpeg."""
+
+def read_range_grid(path: _Path) -> _Grid:
+    """Reads a range grid: points (H×W×3, NaN holes), normals, confidence (H×W float32), sensor."""
+
+def write_range_grid(path: _Path, grid: _Grid) -> None:
+    """Writes a range grid (a dict as read_range_grid gives) as a PLY with grid_col/grid_row."""
+
+def denoise(frames: Union[_Grid, list[_Grid]], *, current: int = 0, temporal: int = 0) -> tuple[_Grid, dict[str, Any]]:
+    """Non-local denoising (thesis ch. 4: eq. 4.3 alone, eq. 4.6 over `temporal` frames either side)."""
+
+def simulate_view(
+    angle_deg: float = 0.0,
+    *,
+    config: str = "structured-light",
+    method: Optional[str] = None,
+    resolution: Optional[tuple[int, int]] = None,
+    mesh: Optional[_Path] = None,
+    size: Optional[float] = None,
+    up: str = "y",
+    seed: int = 1,
+    view: int = 0,
+    noiseless: bool = False,
+) -> dict[str, Any]:
+    """One simulated view in memory: frames, patterns, rig (TOML text), truth (points, object, projector)."""
+
+def simulate_scan(
+    out: _Path,
+    *,
+    config: str = "structured-light",
+    method: Optional[str] = None,
+    views: Optional[int] = None,
+    resolution: Optional[tuple[int, int]] = None,
+    mesh: Optional[_Path] = None,
+    size: Optional[float] = None,
+    up: str = "y",
+    seed: int = 1,
+    noiseless: bool = False,
+    truth: bool = True,
+) -> dict[str, Any]:
+    """A simulated scan folder, as `scanrig sim` writes it (resumes a half-written one): the report."""
+
+def decode(
+    frames: list[_Image],
+    *,
+    projector: tuple[int, int],
+    patterns: Optional[list[dict[str, Any]]] = None,
+    shadow_threshold: Optional[float] = None,
+    bit_threshold: Optional[int] = None,
+    gray_fit_radius: Optional[int] = None,
+) -> tuple[_F64, dict[str, Any]]:
+    """Gray code and phase shift into a projector map (H×W×3: u, v, confidence; NaN undecoded)."""
+
+def triangulate(map: _F64, rig: _Path) -> tuple[_Grid, dict[str, Any]]:
+    """A projector map through the rig's camera and projector (eq. 2.3) into a range grid (mm)."""
+
+def register(
+    grids: list[_Grid], angles_deg: list[float], rig: _Path, *, force: bool = False
+) -> tuple[dict[str, Optional[np.ndarray]], list[dict[str, Any]], dict[str, Any]]:
+    """Multi-view ICP from the turntable poses (thesis ch. 2.2): (cloud, poses, report)."""
+
+def calibrate_camera(
+    captures: _Path,
+    *,
+    board: tuple[int, int] = (9, 6),
+    square: float = 15.0,
+    out: Optional[_Path] = None,
+    rig: Optional[_Path] = None,
+    fix_aspect_ratio: bool = False,
+    fix_principal_point: bool = False,
+    zero_tangential: bool = False,
+    fix_k3: bool = False,
+    force: bool = False,
+) -> tuple[str, dict[str, Any]]:
+    """The camera from chessboard captures: (rig TOML text, report)."""
+
+def calibrate_rig(
+    captures: _Path,
+    *,
+    board: tuple[int, int] = (9, 6),
+    square: float = 15.0,
+    out: Optional[_Path] = None,
+    rig: Optional[_Path] = None,
+    projector: Optional[tuple[int, int]] = None,
+    corner_height: Optional[float] = None,
+    fix_aspect_ratio: bool = False,
+    fix_principal_point: bool = False,
+    zero_tangential: bool = False,
+    fix_k3: bool = False,
+    force: bool = False,
+) -> tuple[str, dict[str, Any]]:
+    """Camera, projector, laser planes and turntable axis, as the captures allow: (rig TOML text, report)."""

@@ -58,6 +58,46 @@ impl<'py> Xyz<'py> {
     pub fn len(&self) -> usize {
         self.array.shape()[0]
     }
+
+    /// The rows for a worker thread: the array's buffer with the array object held (so it lives,
+    /// and, referenced, cannot be resized), or the gathered copy itself.
+    pub fn into_rows(self, obj: &Bound<'py, PyAny>) -> Rows {
+        match self.copy {
+            Some(copy) => Rows { ptr: copy.as_ptr(), len: copy.len(), _owner: None, _copy: Some(copy) },
+            None => {
+                let points = self.points();
+                Rows { ptr: points.as_ptr(), len: points.len(), _owner: Some(obj.clone().unbind()), _copy: None }
+            }
+        }
+    }
+}
+
+/// N×3 rows handed to a worker thread, read where they lie (see [`Xyz::into_rows`]). The caller
+/// must not write into an array while a call that was given it runs (Python code could, from
+/// another thread, while the GIL is released; the docstrings say not to).
+pub struct Rows {
+    ptr: *const Point3,
+    len: usize,
+    _owner: Option<Py<PyAny>>,
+    _copy: Option<Vec<Point3>>,
+}
+
+// SAFETY: `ptr` points into a NumPy array's buffer kept alive by `_owner` (NumPy never moves the
+// data of a referenced array: ndarray.resize refuses), or into `_copy`, whose heap buffer does not
+// move with the struct; the worker only reads it.
+unsafe impl Send for Rows {}
+
+impl Rows {
+    /// The rows as points.
+    pub fn points(&self) -> &[Point3] {
+        // SAFETY: see the `Send` impl; ptr/len came from a live `&[Point3]`.
+        unsafe { std::slice::from_raw_parts(self.ptr, self.len) }
+    }
+
+    /// The rows as vectors (normals).
+    pub fn vectors(&self) -> &[Vector3] {
+        bytemuck::cast_slice(bytemuck::cast_slice::<Point3, f64>(self.points()))
+    }
 }
 
 /// What an argument that is not the array asked for is, for the message.

@@ -12,6 +12,9 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(write_cloud, m)?)?;
     m.add_function(wrap_pyfunction!(read_mesh, m)?)?;
     m.add_function(wrap_pyfunction!(write_mesh, m)?)?;
+    m.add_function(wrap_pyfunction!(read_image, m)?)?;
+    m.add_function(wrap_pyfunction!(write_image, m)?)?;
+    m.add_function(wrap_pyfunction!(write_range_grid, m)?)?;
     Ok(())
 }
 
@@ -87,4 +90,34 @@ fn write_mesh(
     }
     mesh.colors = arrays::optional_colors(colors, v.len())?;
     py.detach(|| rig::write_mesh(&path, &mesh, &rig::ply::WriteOptions::default())).map_err(errors::file)
+}
+
+/// Reads an image (PNG or JPEG): H×W uint8 for grey, H×W×3 for colour.
+#[pyfunction]
+fn read_image(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyAny>> {
+    let img = py.detach(|| rig::image::read_image(&path)).map_err(errors::file)?;
+    Ok(crate::capture::image_out(py, img))
+}
+
+/// Writes an image (H×W or H×W×3 uint8): PNG, or JPEG (quality 95) for .jpg/.jpeg.
+#[pyfunction]
+fn write_image(py: Python<'_>, path: PathBuf, image: &Bound<'_, PyAny>) -> PyResult<()> {
+    let img = crate::capture::image_in(image, "image")?;
+    let jpeg = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("jpg") || e.eq_ignore_ascii_case("jpeg"));
+    py.detach(|| match jpeg {
+        true => rig::write_atomic(&path, &rig::image::jpeg_bytes(&img, 95)),
+        false => rig::image::write_png(&path, &img, false),
+    })
+    .map_err(errors::file)
+}
+
+/// Writes a range grid (a dict as read_range_grid gives) as a PLY with grid_col/grid_row, float32,
+/// as scanrig writes its grids.
+#[pyfunction]
+fn write_range_grid(py: Python<'_>, path: PathBuf, grid: &Bound<'_, PyAny>) -> PyResult<()> {
+    let g = crate::grids::grid_in(grid, "grid")?;
+    py.detach(|| rig::ply::write_range_grid(&path, &g, &rig::ply::WriteOptions::default())).map_err(errors::file)
 }

@@ -5,8 +5,11 @@
 //! module `scanrig._scanrig` with dataclasses and the `ScanrigError` hierarchy.
 
 mod arrays;
+mod calibrate;
+mod capture;
 mod errors;
 mod files;
+mod grids;
 mod run;
 mod stages;
 
@@ -17,6 +20,9 @@ use pyo3::prelude::*;
 fn _scanrig(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     files::register(m)?;
+    capture::register(m)?;
+    calibrate::register(m)?;
+    grids::register(m)?;
     stages::register(m)?;
     m.add_function(wrap_pyfunction!(arrays::_read_address, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

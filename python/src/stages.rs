@@ -1,7 +1,7 @@
 //! The stages as functions: keyword parameters with the command line's defaults, arrays in, arrays
 //! and a report dict out. Each checks its arrays, then runs the library's stage off the GIL.
 
-use crate::arrays::{self, Xyz};
+use crate::arrays::{self, Rows, Xyz};
 use crate::errors;
 use crate::run::interruptible;
 use ::process::pipeline::stages::{self, FuseParams, ReconstructParams};
@@ -11,7 +11,6 @@ use numpy::PyArray2;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use rig::math::{Point3, Vector3};
 use rig::{PointCloud, TriMesh};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -32,48 +31,7 @@ pub fn report<'py>(py: Python<'py>, r: &impl serde::Serialize) -> PyResult<Bound
     py.import("json")?.call_method1("loads", (text,))
 }
 
-/// Borrowed N×3 rows handed to a worker thread: the array object is held (so its buffer lives and,
-/// held, cannot be resized), and the rows are read in place.
-struct Rows {
-    ptr: *const Point3,
-    len: usize,
-    _owner: Py<PyAny>,
-}
-
-// SAFETY: the buffer belongs to a NumPy array kept alive by `_owner` for as long as `Rows` lives;
-// NumPy never moves the data of an array that is referenced (ndarray.resize refuses), and the worker
-// only reads it.
-unsafe impl Send for Rows {}
-
-impl Rows {
-    fn new(obj: &Bound<'_, PyAny>, xyz: &Xyz<'_>) -> Self {
-        let points = xyz.points();
-        Rows { ptr: points.as_ptr(), len: points.len(), _owner: obj.clone().unbind() }
-    }
-
-    fn points(&self) -> &[Point3] {
-        // SAFETY: see the `Send` impl; ptr/len came from a live `&[Point3]`.
-        unsafe { std::slice::from_raw_parts(self.ptr, self.len) }
-    }
-}
-
-/// A cloud from the arrays (copied: the stages own what they work on).
-fn cloud_from(
-    points: &Xyz<'_>,
-    normals: Option<&Xyz<'_>>,
-    colors: Option<Vec<[u8; 3]>>,
-    confidence: Option<Vec<f32>>,
-) -> PointCloud {
-    PointCloud {
-        positions: points.points().to_vec(),
-        normals: normals.map(|n| n.vectors().to_vec()),
-        colors,
-        confidence,
-        view_id: None,
-    }
-}
-
-fn cloud_out<'py>(py: Python<'py>, cloud: PointCloud) -> PyResult<Bound<'py, PyDict>> {
+pub fn cloud_out<'py>(py: Python<'py>, cloud: PointCloud) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("points", arrays::points_out(py, cloud.positions))?;
     d.set_item("normals", cloud.normals.map(|n| arrays::vectors_out(py, n)))?;
@@ -99,12 +57,11 @@ fn fuse<'py>(
     let xyz = Xyz::extract(points, "points")?;
     let n = xyz.len();
     let nrm = arrays::optional_xyz(normals, "normals", n)?;
-    let cloud = cloud_from(
-        &xyz,
-        nrm.as_ref(),
-        arrays::optional_colors(colors, n)?,
-        arrays::optional_f32(confidence, "confidence", n)?,
-    );
+    let colors = arrays::optional_colors(colors, n)?;
+    let confidence = arrays::optional_f32(confidence, "confidence", n)?;
+    // Read where they lie: fusion's Morton-ordered working copy is made from the arrays directly.
+    let rows = xyz.into_rows(points);
+    let normal_rows = nrm.zip(normals).map(|(x, obj)| x.into_rows(obj));
     let d = FuseParams::default();
     let mut params = d;
     if let Some(k) = k {
@@ -122,7 +79,17 @@ fn fuse<'py>(
         }
         params.mean_shift.kernel_spacing = s;
     }
-    let (fused, r) = interruptible(py, move || stages::fuse(cloud, &params))?.map_err(errors::stage)?;
+    let (fused, r) = interruptible(py, move || {
+        let cloud = rig::CloudRef {
+            positions: rows.points(),
+            normals: normal_rows.as_ref().map(Rows::vectors),
+            colors: colors.as_deref(),
+            confidence: confidence.as_deref(),
+            view_id: None,
+        };
+        stages::fuse_borrowed(cloud, &params)
+    })?
+    .map_err(errors::stage)?;
     let kept = numpy::PyArray1::from_vec(py, fused.kept).into_any();
     Ok((cloud_out(py, fused.cloud)?, kept, report(py, &r)?))
 }
@@ -182,8 +149,12 @@ fn reconstruct<'py>(
         }
         other => return Err(PyValueError::new_err(format!("method must be \"fft\" or \"adfft\", got {other:?}"))),
     };
-    let cloud = cloud_from(&xyz, Some(&nrm), None, None);
-    let (mesh, r) = interruptible(py, move || stages::reconstruct(&cloud, &params))?.map_err(errors::stage)?;
+    let (rows, normal_rows) = (xyz.into_rows(points), nrm.into_rows(normals));
+    let (mesh, r) = interruptible(py, move || {
+        let cloud = rig::CloudRef { normals: Some(normal_rows.vectors()), ..rig::CloudRef::positions(rows.points()) };
+        stages::reconstruct(cloud, &params)
+    })?
+    .map_err(errors::stage)?;
     Ok((arrays::points_out(py, mesh.vertices), arrays::triangles_out(py, &mesh.faces), report(py, &r)?))
 }
 
@@ -262,12 +233,9 @@ fn icp<'py>(
         start_distance: start_distance.unwrap_or(d.start_distance),
         ..d
     };
-    let (rows, row_normals) = (Rows::new(moving, &m), Rows::new(moving_normals, &mn));
+    let (rows, row_normals) = (m.into_rows(moving), mn.into_rows(moving_normals));
     let target = IcpTarget::new(t.points().to_vec(), tn.vectors().to_vec(), None);
-    let result = interruptible(py, move || {
-        let normals: &[Vector3] = bytemuck::cast_slice(row_normals.points());
-        run_icp(rows.points(), normals, &target, &start, &params)
-    })?;
+    let result = interruptible(py, move || run_icp(rows.points(), row_normals.vectors(), &target, &start, &params))?;
     let (pose, r) = result.map_err(errors::stage)?;
     let m4 = pose.to_homogeneous();
     let flat: Vec<f64> = (0..4).flat_map(|i| (0..4).map(move |j| m4[(i, j)])).collect();

@@ -5,37 +5,12 @@ The CLI binary is SCANRIG_CLI, else target/debug/scanrig or target/release/scanr
 checkout; tests that need it or the data skip, saying so.
 """
 
-import os
-import pathlib
-import subprocess
-
 import numpy as np
 import pytest
 
 import scanrig
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-DATA = ROOT.parent / "shared" / "data"
-BUNNY = DATA / "stanford-bunny"
-
-
-def cli():
-    for c in [os.environ.get("SCANRIG_CLI"), ROOT / "target/debug/scanrig", ROOT / "target/release/scanrig"]:
-        if c and pathlib.Path(c).exists():
-            return str(c)
-    pytest.skip("SKIPPED: no scanrig binary (cargo build, or set SCANRIG_CLI)")
-
-
-def need(path):
-    if not path.exists():
-        pytest.skip(f"SKIPPED: {path} is absent (../shared/data)")
-    return path
-
-
-def run(*args):
-    r = subprocess.run([cli(), *map(str, args)], capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    return r
+from helpers import BUNNY, DATA, need, run
 
 
 @pytest.fixture(scope="module")
@@ -169,8 +144,11 @@ def test_process_equals_the_cli_on_a_simulated_scan(tmp_path):
 def test_contiguous_float64_is_read_in_place_and_strided_arrays_are_gathered():
     from scanrig import _scanrig
 
-    a = np.random.default_rng(2).normal(size=(3000, 3))
-    assert _scanrig._read_address(a) == a.ctypes.data
+    # A 3 M-point cloud, C-ordered float64: read where it lies (fuse, reconstruct and icp hand these
+    # rows to the library as they are; fusion's Morton-ordered working copy is made from them).
+    big = np.random.default_rng(2).normal(size=(3_000_000, 3))
+    assert _scanrig._read_address(big) == big.ctypes.data
+    a = big[:3000].copy()
     f = np.asfortranarray(a)
     assert _scanrig._read_address(f) != f.ctypes.data
     # Read as its values, not its buffer: the same fused result as the C-ordered copy.
@@ -201,3 +179,24 @@ def test_a_long_call_stops_at_ctrl_c(bunny_fused):
         signal.signal(signal.SIGALRM, old)
     # The fusion of 240 K points takes seconds; the call gave up within a poll of the signal.
     assert waited < 1.5, waited
+
+
+def test_denoise_equals_the_cli_and_moves_the_scan_toward_the_surface(tmp_path):
+    src = need(BUNNY / "data/bun000.ply")
+    grid = scanrig.read_range_grid(src)
+    h, w, three = grid["points"].shape
+    assert three == 3 and np.isnan(grid["points"]).any(), "holes are NaN"
+    clean, report = scanrig.denoise(grid)
+    assert clean["points"].shape == grid["points"].shape
+    run("denoise", src, "-o", tmp_path / "d.ply")
+    theirs = scanrig.read_range_grid(tmp_path / "d.ply")
+    valid = ~np.isnan(clean["points"][..., 0])
+    assert np.array_equal(valid, ~np.isnan(theirs["points"][..., 0]))
+    # The CLI's file holds float32 (metres: 1e-8 of rounding).
+    assert np.abs(clean["points"][valid] - theirs["points"][valid]).max() < 1e-6
+    assert report["points"] == int(valid.sum())
+    # A sequence of one frame, temporal reaching past it, is refused by name.
+    with pytest.raises(ValueError, match="temporal = 3 reaches past the 1 frames"):
+        scanrig.denoise([grid], temporal=3)
+    with pytest.raises(TypeError, match=r"frames\[0\]\[\"points\"\]"):
+        scanrig.denoise([{"points": np.zeros((4, 4, 3), dtype=np.float32)}])
