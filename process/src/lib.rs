@@ -125,6 +125,24 @@ pub enum Error {
         /// The frame's pattern name.
         frame: &'static str,
     },
+    /// A pack of outputs (from a distributed run's worker) that cannot be adopted.
+    #[error("output {name} of a packed part: {why}")]
+    Part {
+        /// The file's name in the pack.
+        name: String,
+        /// What is wrong with it.
+        why: String,
+    },
+    /// A view asked for by number that the scan does not have complete.
+    #[error("{} has no complete view {view} ({views} views in its manifest)", scan.display())]
+    NoSuchView {
+        /// The scan folder.
+        scan: PathBuf,
+        /// The view asked for.
+        view: usize,
+        /// Views in the manifest.
+        views: usize,
+    },
     /// A scan without a complete view.
     #[error(
         "{}: none of its {views} views is complete (an interrupted capture? `scanrig scan --resume` finishes it)",

@@ -11,6 +11,7 @@
 pub mod layout;
 pub mod lock;
 pub mod memory;
+pub mod parts;
 pub mod records;
 mod report;
 mod run;
@@ -127,6 +128,9 @@ pub struct ProcessParams {
     /// Go on past results that cannot be right (a registration correction beyond the tolerance),
     /// with a warning, instead of failing.
     pub force: bool,
+    /// Only these views (of the complete ones); `None` takes every complete view. A distributed run
+    /// processes each view on its own worker this way ([`parts`]), then the scan with all of them.
+    pub views: Option<Vec<usize>>,
 }
 
 impl Default for ProcessParams {
@@ -147,6 +151,7 @@ impl Default for ProcessParams {
             until: Stage::Remesh,
             redo: false,
             force: false,
+            views: None,
         }
     }
 }

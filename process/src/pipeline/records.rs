@@ -224,6 +224,19 @@ impl Records {
         self.file.outputs.remove(name);
     }
 
+    /// The records of another folder's `stages.json` bytes; `None` if they are not records of this
+    /// layout version.
+    pub fn parse(bytes: &[u8]) -> Option<BTreeMap<String, Record>> {
+        let file: RecordsFile = serde_json::from_slice(bytes).ok()?;
+        (file.format == RECORDS_FORMAT).then_some(file.outputs)
+    }
+
+    /// Takes over records made elsewhere (outputs copied in beside them), replacing this folder's
+    /// record of the same output.
+    pub fn merge(&mut self, outputs: BTreeMap<String, Record>) {
+        self.file.outputs.extend(outputs);
+    }
+
     /// Writes the records atomically.
     pub fn save(&self) -> Result<(), rig::Error> {
         let json = serde_json::to_vec_pretty(&self.file).expect("records serialise");

@@ -303,7 +303,15 @@ pub fn process_scan(
         ));
     }
     let complete: Vec<usize> = (0..manifest.views.len()).filter(|&v| manifest.views[v].complete).collect();
+    if let Some(&v) = params.views.iter().flatten().find(|&&v| !complete.contains(&v)) {
+        return Err(Error::NoSuchView { scan: scan.to_path_buf(), view: v, views: manifest.views.len() });
+    }
     report.incomplete_views = (0..manifest.views.len()).filter(|v| !complete.contains(v)).collect();
+    // A view subset (a distributed run's per-view part) leaves the others alone.
+    let complete: Vec<usize> = match &params.views {
+        Some(only) => complete.into_iter().filter(|v| only.contains(v)).collect(),
+        None => complete,
+    };
     if complete.is_empty() {
         return Err(Error::NoCompleteViews { scan: scan.to_path_buf(), views: manifest.views.len() });
     }

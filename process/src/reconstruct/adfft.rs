@@ -143,6 +143,57 @@ struct Cell {
     points: Vec<u32>,
 }
 
+impl Cell {
+    /// What solving this cell as a leaf needs of it.
+    fn task(&self) -> LeafTask {
+        LeafTask { centre: self.centre.coords.into(), edge: self.edge }
+    }
+}
+
+/// A leaf to solve: its cell's centre and edge (the cloud's units). With [`LeafGrid`] and the
+/// samples, all a worker needs ([`LeafSolver`]).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+pub struct LeafTask {
+    /// The cell's centre.
+    pub centre: [Real; 3],
+    /// The cell's edge.
+    pub edge: Real,
+}
+
+/// The global grid every leaf is solved onto, and the solve's parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+pub struct LeafGrid {
+    /// The grid's first point.
+    pub origin: [Real; 3],
+    /// Its spacing.
+    pub h: Real,
+    /// Points per axis.
+    pub n: usize,
+    /// A leaf's support over its edge ([`AdFftParams::scale`]).
+    pub scale: Real,
+    /// [`AdFftParams::smoothing_cells`].
+    pub smoothing_cells: Real,
+}
+
+/// Solves leaves from the samples (on a worker of a distributed run): the samples' tree is built
+/// once, then [`LeafSolver::solve`] is exactly the solve [`reconstruct_adfft`] does itself.
+pub struct LeafSolver<'a> {
+    samples: Samples<'a>,
+}
+
+impl<'a> LeafSolver<'a> {
+    /// A solver over the oriented samples and their area weights (as [`reconstruct_adfft_with`]
+    /// hands them to its solver).
+    pub fn new(positions: &'a [Point3], normals: &'a [Vector3], weights: Vec<Real>) -> Self {
+        LeafSolver { samples: Samples { positions, normals, weights, tree: PointTree::new(positions) } }
+    }
+
+    /// One leaf's χ − iso on the global grid points of its support, with its blending weights.
+    pub fn solve(&self, leaf: &LeafTask, grid: &LeafGrid) -> SolvedLeaf {
+        solve_leaf(&self.samples, leaf, grid)
+    }
+}
+
 /// The oriented, weighted samples and a tree over them.
 struct Samples<'a> {
     positions: &'a [Point3],
@@ -164,16 +215,17 @@ impl Samples<'_> {
 
     /// The local χ of a cell on a cube of twice its edge at `n` points per axis, from the points in the
     /// cell scaled by `scale`; returned with the cube and the local iso-level (the mean of χ there).
-    fn local_chi(&self, cell: &Cell, scale: Real, n: usize, smoothing_cells: Real) -> (Vec<f32>, Cube, Level) {
-        let ids = self.in_cube(&cell.centre, scale * cell.edge / 2.0);
+    fn local_chi(&self, cell: &LeafTask, scale: Real, n: usize, smoothing_cells: Real) -> (Vec<f32>, Cube, Level) {
+        let (centre, edge) = (Point3::from(cell.centre), cell.edge);
+        let ids = self.in_cube(&centre, scale * edge / 2.0);
         let positions: Vec<Point3> = ids.iter().map(|&i| self.positions[i as usize]).collect();
         let normals: Vec<Vector3> = ids.iter().map(|&i| self.normals[i as usize]).collect();
         let weights: Vec<Real> = ids.iter().map(|&i| self.weights[i as usize]).collect();
-        let cube = Cube { origin: cell.centre - Vector3::repeat(cell.edge), size: 2.0 * cell.edge, n };
+        let cube = Cube { origin: centre - Vector3::repeat(edge), size: 2.0 * edge, n };
         let mut scratch = FftReport::default();
         let chi = indicator(&positions, &normals, &weights, &cube, smoothing_cells, &mut scratch);
         let values: Vec<Real> = positions.iter().map(|p| sample(&chi, n, cube.origin, cube.cell(), p)).collect();
-        (chi, cube, Level::fit(&positions, &values, cell.centre))
+        (chi, cube, Level::fit(&positions, &values, centre))
     }
 }
 
@@ -239,7 +291,7 @@ impl Level {
 /// Hausdorff test over a tenth of them).
 fn needs_split(samples: &Samples, cell: &Cell, params: &AdFftParams, error: Real) -> bool {
     let n = 1usize << params.test_depth;
-    let (chi, cube, level) = samples.local_chi(cell, params.scale, n, params.smoothing_cells);
+    let (chi, cube, level) = samples.local_chi(&cell.task(), params.scale, n, params.smoothing_cells);
     let frame = GridFrame { dims: [n; 3], origin: cube.origin, spacing: cube.cell() };
     let mesh = marching_cubes(&frame, 0.0, |i, j, k| {
         if [i, j, k].iter().any(|&c| c == 0 || c == n - 1) {
@@ -286,12 +338,19 @@ fn split(cell: &Cell, positions: &[Point3]) -> Vec<Cell> {
 
 /// A solved leaf, kept while the sweep crosses its support: χ − iso on the global grid points of the
 /// support box, and the separable blending weights along each axis.
-struct Solved {
-    lo: [usize; 3],
-    dims: [usize; 3],
-    values: Vec<f32>,
-    weight: [Vec<f32>; 3],
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolvedLeaf {
+    /// The support box's first grid point.
+    pub lo: [usize; 3],
+    /// Its grid points per axis.
+    pub dims: [usize; 3],
+    /// χ − iso at those points, x fastest.
+    pub values: Vec<f32>,
+    /// The blending weight along each axis.
+    pub weight: [Vec<f32>; 3],
 }
+
+type Solved = SolvedLeaf;
 
 /// The memory the sweep will hold at its peak, from the octree before anything is solved: the
 /// coarse grid, the solved leaves alive at once (the sweep's own bookkeeping, replayed on the support
@@ -334,7 +393,7 @@ fn estimate_bytes(
 }
 
 /// The global grid index range a leaf's support covers, clamped to the grid.
-fn support_range(cell: &Cell, scale: Real, origin: &Point3, h: Real, n: usize) -> ([usize; 3], [usize; 3]) {
+fn support_range(cell: &LeafTask, scale: Real, origin: &Point3, h: Real, n: usize) -> ([usize; 3], [usize; 3]) {
     let half = scale * cell.edge / 2.0;
     let mut lo = [0; 3];
     let mut hi = [0; 3];
@@ -347,11 +406,12 @@ fn support_range(cell: &Cell, scale: Real, origin: &Point3, h: Real, n: usize) -
     (lo, hi)
 }
 
-fn solve_leaf(samples: &Samples, cell: &Cell, params: &AdFftParams, origin: &Point3, h: Real, n: usize) -> Solved {
+fn solve_leaf(samples: &Samples, cell: &LeafTask, grid: &LeafGrid) -> Solved {
+    let (origin, h, n) = (&Point3::from(grid.origin), grid.h, grid.n);
     // Local resolution so the local spacing equals the global one: 2·edge / h points.
     let local_n = ((2.0 * cell.edge / h).round() as usize).max(4);
-    let (chi, cube, level) = samples.local_chi(cell, params.scale, local_n, params.smoothing_cells);
-    let (lo, hi) = support_range(cell, params.scale, origin, h, n);
+    let (chi, cube, level) = samples.local_chi(cell, grid.scale, local_n, grid.smoothing_cells);
+    let (lo, hi) = support_range(cell, grid.scale, origin, h, n);
     let dims = [hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1];
     // Global point (lo + a) sits at local index (lo + a) − offset; the octree keeps the two grids
     // aligned (cell corners and the doubled cube's corner fall on global grid points).
@@ -369,7 +429,7 @@ fn solve_leaf(samples: &Samples, cell: &Cell, params: &AdFftParams, origin: &Poi
     }
     // Eq. 5.20's Gaussian about the centre (σ = half the edge), times (1 − t²)² in each axis so the
     // weight is zero at the support's edge (t = ±1).
-    let half = params.scale * cell.edge / 2.0;
+    let half = grid.scale * cell.edge / 2.0;
     let sigma = cell.edge / 2.0;
     let weight = std::array::from_fn(|d| {
         (0..dims[d])
@@ -389,6 +449,77 @@ pub fn reconstruct_adfft<'a>(
     params: &AdFftParams,
 ) -> Result<(TriMesh, AdFftReport), super::global_fft::ReconstructError> {
     let cloud = cloud.into();
+    let plan = plan(cloud, params)?;
+    let (grid, leaves) = (plan.grid(params), plan.tasks());
+    // Each leaf is solved when the sweep reaches its support, those starting on one plane in parallel.
+    Ok(sweep(plan, cloud, params, |samples, starting| {
+        starting.par_iter().map(|&l| solve_leaf(samples, &leaves[l], &grid)).collect()
+    }))
+}
+
+/// [`reconstruct_adfft`] with its leaves solved by `solve_all` — on other machines, say: it is given
+/// every leaf, the global grid and the samples' area weights, and returns each leaf solved as
+/// [`LeafSolver::solve`] solves it, in the order given. The octree, the coarse χ and the blend run
+/// here, so the mesh is the one [`reconstruct_adfft`] makes when the solves are the same. All
+/// solved leaves are held at once (the local sweep holds one plane's worth).
+pub fn reconstruct_adfft_with<'a>(
+    cloud: impl Into<rig::CloudRef<'a>>,
+    params: &AdFftParams,
+    solve_all: impl FnOnce(&[LeafTask], &LeafGrid, &[Real]) -> Result<Vec<SolvedLeaf>, String>,
+) -> Result<(TriMesh, AdFftReport), super::global_fft::ReconstructError> {
+    use super::global_fft::ReconstructError;
+    let cloud = cloud.into();
+    let plan = plan(cloud, params)?;
+    let (grid, tasks) = (plan.grid(params), plan.tasks());
+    let solved = solve_all(&tasks, &grid, &plan.samples.weights).map_err(ReconstructError::Leaves)?;
+    if solved.len() != tasks.len() {
+        return Err(ReconstructError::Leaves(format!("{} leaves solved of {}", solved.len(), tasks.len())));
+    }
+    // A solve of another grid or leaf would be blended in the wrong place: each is checked.
+    for (l, (s, task)) in solved.iter().zip(&tasks).enumerate() {
+        let (lo, hi) = support_range(task, grid.scale, &Point3::from(grid.origin), grid.h, grid.n);
+        let dims = [hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1];
+        let sized = s.values.len() == dims.iter().product::<usize>() && (0..3).all(|d| s.weight[d].len() == dims[d]);
+        if s.lo != lo || s.dims != dims || !sized {
+            return Err(ReconstructError::Leaves(format!("leaf {l} came back for another support")));
+        }
+    }
+    let mut solved: Vec<Option<SolvedLeaf>> = solved.into_iter().map(Some).collect();
+    Ok(sweep(plan, cloud, params, |_, starting| {
+        starting.iter().map(|&l| solved[l].take().expect("the sweep starts each leaf once")).collect()
+    }))
+}
+
+/// The octree and what the sweep needs beside it.
+struct Plan<'a> {
+    samples: Samples<'a>,
+    leaves: Vec<Cell>,
+    ranges: Vec<([usize; 3], [usize; 3])>,
+    origin: Point3,
+    size: Real,
+    h: Real,
+    n: usize,
+    report: AdFftReport,
+}
+
+impl Plan<'_> {
+    fn grid(&self, params: &AdFftParams) -> LeafGrid {
+        LeafGrid {
+            origin: self.origin.coords.into(),
+            h: self.h,
+            n: self.n,
+            scale: params.scale,
+            smoothing_cells: params.smoothing_cells,
+        }
+    }
+
+    fn tasks(&self) -> Vec<LeafTask> {
+        self.leaves.iter().map(Cell::task).collect()
+    }
+}
+
+/// Checks, the samples' weights and tree, the octree (steps 1–2) and the memory check.
+fn plan<'a>(cloud: rig::CloudRef<'a>, params: &AdFftParams) -> Result<Plan<'a>, super::global_fft::ReconstructError> {
     use super::global_fft::ReconstructError;
     if cloud.is_empty() {
         return Err(ReconstructError::Empty);
@@ -451,10 +582,23 @@ pub fn reconstruct_adfft<'a>(
     }
     report.seconds_octree = start.elapsed().as_secs_f64();
     let ranges: Vec<([usize; 3], [usize; 3])> =
-        leaves.iter().map(|c| support_range(c, params.scale, &origin, h, n)).collect();
+        leaves.iter().map(|c| support_range(&c.task(), params.scale, &origin, h, n)).collect();
     report.estimated_bytes = estimate_bytes(&leaves, &ranges, cloud.len(), n, h, params);
     super::global_fft::check_memory(report.estimated_bytes, n, params.memory_budget, "--method adfft")?;
 
+    Ok(Plan { samples, leaves, ranges, origin, size, h, n, report })
+}
+
+/// The coarse χ and the sweep (steps 3–4): marching cubes plane by plane over the blend of the leaves
+/// `solve` hands over as the sweep reaches them (given the leaves' indices), then the clean-up.
+fn sweep(
+    plan: Plan<'_>,
+    cloud: rig::CloudRef<'_>,
+    params: &AdFftParams,
+    mut solve: impl FnMut(&Samples, &[usize]) -> Vec<Solved>,
+) -> (TriMesh, AdFftReport) {
+    let Plan { samples, leaves, ranges, origin, size, h, n, mut report } = plan;
+    let normals = samples.normals;
     // A coarse global χ answers where no leaf reaches — the empty cells deep inside the object and far
     // outside — and outweighs a leaf in the fringe of its support, where the local solid closes itself
     // with a surface that belongs to no data.
@@ -479,8 +623,7 @@ pub fn reconstruct_adfft<'a>(
     let mut mesh = marching_cubes_by_plane(&frame, 0.0, |k| {
         let starting: Vec<usize> = order[next_leaf..].iter().copied().take_while(|&l| ranges[l].0[2] <= k).collect();
         next_leaf += starting.len();
-        let solved: Vec<Solved> =
-            starting.par_iter().map(|&l| solve_leaf(&samples, &leaves[l], params, &origin, h, n)).collect();
+        let solved = solve(&samples, &starting);
         active.extend(solved);
         active.retain(|s| s.lo[2] + s.dims[2] > k);
         peak_active = peak_active.max(active.len());
@@ -520,7 +663,7 @@ pub fn reconstruct_adfft<'a>(
     report.seconds_extract = t.elapsed().as_secs_f64();
     report.vertices = mesh.vertices.len();
     report.triangles = mesh.faces.len();
-    Ok((mesh, report))
+    (mesh, report)
 }
 
 #[cfg(test)]
@@ -538,5 +681,38 @@ mod tests {
         let worst = mesh.vertices.iter().map(|p| (p.coords.norm() - 40.0).abs()).fold(0.0, Real::max);
         assert!(worst <= report.cell, "Hausdorff {worst} vs cell {}; {report:?}", report.cell);
         assert!(report.leaves() > 1);
+    }
+
+    /// Leaves solved elsewhere (here: a `LeafSolver` of their own, as a worker builds one from the
+    /// samples and weights it is sent) blend into the very mesh the local sweep makes; a solve that
+    /// comes back for another support is refused, not blended in the wrong place.
+    #[test]
+    fn leaves_solved_apart_give_the_same_mesh_and_bad_ones_are_refused() {
+        let cloud = crate::reconstruct::global_fft::tests::sphere(20_000, 40.0);
+        let params = AdFftParams { depth: 7, ..Default::default() };
+        let (local, _) = reconstruct_adfft(&cloud, &params).unwrap();
+        let normals = cloud.normals.as_deref().unwrap();
+        let (apart, report) = reconstruct_adfft_with(&cloud, &params, |tasks, grid, weights| {
+            // In two batches, the second first: the order of solving does not matter, only of handing back.
+            let solver = LeafSolver::new(&cloud.positions, normals, weights.to_vec());
+            let half = tasks.len() / 2;
+            let second: Vec<SolvedLeaf> = tasks[half..].iter().map(|t| solver.solve(t, grid)).collect();
+            let mut all: Vec<SolvedLeaf> = tasks[..half].iter().map(|t| solver.solve(t, grid)).collect();
+            all.extend(second);
+            Ok(all)
+        })
+        .unwrap();
+        assert!(report.leaves() > 1);
+        assert_eq!(apart, local, "the mesh differs from the local sweep's");
+        let shifted = reconstruct_adfft_with(&cloud, &params, |tasks, grid, weights| {
+            let solver = LeafSolver::new(&cloud.positions, normals, weights.to_vec());
+            let mut all: Vec<SolvedLeaf> = tasks.iter().map(|t| solver.solve(t, grid)).collect();
+            all[0].lo[0] += 1;
+            Ok(all)
+        });
+        let err = shifted.unwrap_err().to_string();
+        assert!(err.contains("leaf 0 came back for another support"), "{err}");
+        let short = reconstruct_adfft_with(&cloud, &params, |_, _, _| Ok(Vec::new())).unwrap_err().to_string();
+        assert!(short.contains("0 leaves solved of"), "{short}");
     }
 }

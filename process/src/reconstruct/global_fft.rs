@@ -101,6 +101,10 @@ pub enum ReconstructError {
     /// A parameter is out of range.
     #[error("{0}")]
     Params(String),
+    /// AdFFT's leaves, solved elsewhere ([`super::adfft::reconstruct_adfft_with`]), did not come back
+    /// whole.
+    #[error("solving AdFFT's leaves: {0}")]
+    Leaves(String),
     /// The reconstruction needs more memory than the machine has.
     #[error(transparent)]
     Memory(#[from] rig::memory::TooLarge),

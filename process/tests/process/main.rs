@@ -6,6 +6,7 @@ mod denoise;
 mod icp;
 mod laser_real;
 mod mean_shift;
+mod parts;
 mod reconstruct;
 mod register_fuse;
 mod remesh_fields;
