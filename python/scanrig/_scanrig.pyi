@@ -78,8 +78,15 @@ def icp(
 ) -> tuple[_F64, dict[str, Any]]:
     """Point-to-plane ICP (thesis ch. 2.2): (4×4 transform, report)."""
 
-def process(scan: _Path, out: Optional[_Path] = None, *, force: bool = False) -> dict[str, Any]:
-    """Processes a scan folder as `scanrig process` does; returns its report."""
+def process(
+    scan: _Path,
+    out: Optional[_Path] = None,
+    *,
+    force: bool = False,
+    until: Optional[str] = None,
+    views: Optional[list[int]] = None,
+) -> dict[str, Any]:
+    """Processes a scan folder as `scanrig process` does (to stage `until`, of `views` only); returns its report."""
 
 _Grid = dict[str, Any]
 _Image = npt.NDArray[np.uint8]

@@ -7,6 +7,7 @@
 mod arrays;
 mod calibrate;
 mod capture;
+mod distributed;
 mod errors;
 mod files;
 mod grids;
@@ -22,6 +23,7 @@ fn _scanrig(m: &Bound<'_, PyModule>) -> PyResult<()> {
     files::register(m)?;
     capture::register(m)?;
     calibrate::register(m)?;
+    distributed::register(m)?;
     grids::register(m)?;
     stages::register(m)?;
     m.add_function(wrap_pyfunction!(arrays::_read_address, m)?)?;

@@ -263,17 +263,27 @@ fn isometry(obj: &Bound<'_, PyAny>) -> PyResult<rig::math::Isometry3> {
 
 /// Processes a scan folder as `scanrig process` does (decode or find lines, triangulate, denoise,
 /// merge, register, fuse, close, reconstruct, remesh), writing into `out` (default SCAN/processed);
-/// resumes where an earlier run stopped. Returns the report.
+/// resumes where an earlier run stopped. `until` names the last stage to run, `views` limits the run
+/// to those views (a distributed run's per-view part). Returns the report.
 #[pyfunction(name = "process")]
-#[pyo3(signature = (scan, out=None, *, force=false))]
+#[pyo3(signature = (scan, out=None, *, force=false, until=None, views=None))]
 fn process_scan<'py>(
     py: Python<'py>,
     scan: std::path::PathBuf,
     out: Option<std::path::PathBuf>,
     force: bool,
+    until: Option<&str>,
+    views: Option<Vec<usize>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let out = out.unwrap_or_else(|| scan.join("processed"));
-    let params = ::process::pipeline::ProcessParams { force, ..Default::default() };
+    let until = match until {
+        None => ::process::Stage::Remesh,
+        Some(name) => ::process::Stage::from_name(name).ok_or_else(|| {
+            let names: Vec<&str> = ::process::Stage::ALL.iter().map(|s| s.name()).collect();
+            PyValueError::new_err(format!("until must be one of {}, got {name:?}", names.join(", ")))
+        })?,
+    };
+    let params = ::process::pipeline::ProcessParams { force, until, views, ..Default::default() };
     let r = interruptible(py, move || ::process::pipeline::process_scan(&scan, &out, &params, |_, _, _| {}))?
         .map_err(errors::stage)?;
     report(py, &r)

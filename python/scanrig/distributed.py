@@ -1,0 +1,212 @@
+"""scanrig past one machine, on Ray: many scans, and AdFFT reconstructions too large for one process.
+
+Two entry points, each the single-process result computed as Ray tasks (docs/scaling.md says what
+each task sends and receives, and what limits the speed-up):
+
+* :func:`process_scans` — every view of every scan (decode, triangulate, denoise) as a task in a
+  scratch folder on its worker, returning the view's outputs packed; then each scan as a task that
+  adopts its views' packs into the scan's output folder and runs the scan stages (merge, register,
+  fuse, reconstruct, remesh), which find the views current. The scan folders must be readable by
+  every worker (a shared file system) and the output folders writable by them.
+* :func:`reconstruct` — AdFFT (thesis 5.3): the octree, coarse χ and blend (eqs. 5.19-5.20) on the
+  driver, the leaves' local FFT solves as tasks; the points, normals and weights go into Ray's object
+  store once, each task names a batch of leaves.
+
+A task writes nothing outside its scratch folder until its scan adopts it, so a worker killed
+mid-batch costs a retry (Ray reruns the task), never a lost or doubled result.
+
+    python -m scanrig.distributed process SCAN... [--address HOST:PORT]
+    python -m scanrig.distributed reconstruct CLOUD.ply -o MESH.ply [--depth 9]
+
+Without ``--address`` (or ``RAY_ADDRESS``) a local Ray is started for the call and stopped after.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pathlib
+import sys
+import tempfile
+import time
+from typing import Any, Optional, Sequence
+
+import numpy as np
+
+from . import _scanrig
+
+try:
+    import ray
+except ImportError:  # pragma: no cover - said when used
+    ray = None
+
+# Ray reruns a task whose worker died this many times (its default is 3; said here, as the
+# guarantee above rests on it).
+RETRIES = 3
+
+
+def _need_ray():
+    if ray is None:
+        raise ImportError("scanrig.distributed needs Ray: pip install 'ray>=2.40'")
+
+
+def connect(address: Optional[str] = None, workers: Optional[int] = None) -> bool:
+    """Connects to the Ray cluster at ``address`` (``"auto"``: the one ``ray start`` left running),
+    or starts a local one with ``workers`` CPUs. Returns True when this call started Ray (the caller
+    then shuts it down with ``ray.shutdown()``)."""
+    _need_ray()
+    if ray.is_initialized():
+        return False
+    # Each task runs the library single-threaded: Ray gives a task one CPU, and rayon's own pool of
+    # every core on top of Ray's parallelism would put cores × workers threads on the cores.
+    env = {"env_vars": {"RAYON_NUM_THREADS": "1"}}
+    address = address or os.environ.get("RAY_ADDRESS")
+    if address:
+        ray.init(address=address, runtime_env=env, log_to_driver=False)
+    else:
+        ray.init(num_cpus=workers, runtime_env=env, include_dashboard=False, log_to_driver=False)
+    return True
+
+
+def _complete_views(scan: pathlib.Path) -> list[int]:
+    manifest = scan / "scan.json"
+    try:
+        views = json.loads(manifest.read_text())["views"]
+    except (OSError, ValueError, KeyError) as e:
+        raise _scanrig.FileError(f"{manifest}: not a scan manifest ({e})") from e
+    return [v for v, view in enumerate(views) if view.get("complete", True)]
+
+
+def _process_view(scan: str, view: int, force: bool) -> list[tuple[str, bytes]]:
+    with tempfile.TemporaryDirectory(prefix=f"scanrig-view{view:03}-") as scratch:
+        _scanrig.process(scan, scratch, force=force, until="denoise", views=[view])
+        return _scanrig._pack(scratch)
+
+
+def _process_scan(scan: str, out: str, force: bool, *packs: list[tuple[str, bytes]]) -> dict[str, Any]:
+    _scanrig._adopt(out, list(packs))
+    return _scanrig.process(scan, out, force=force)
+
+
+def process_scans(
+    folders: Sequence[os.PathLike | str],
+    outs: Optional[Sequence[os.PathLike | str]] = None,
+    *,
+    force: bool = False,
+    address: Optional[str] = None,
+    workers: Optional[int] = None,
+) -> list[dict[str, Any]]:
+    """Processes scan folders as ``scanrig.process`` does, each view a Ray task and each scan a task
+    after its views; outputs go to ``outs`` (default ``SCAN/processed``). Returns the reports, in the
+    order of ``folders``; the first scan that fails raises its error."""
+    folders = [pathlib.Path(f).resolve() for f in folders]
+    outs = [pathlib.Path(o).resolve() for o in outs] if outs is not None else [f / "processed" for f in folders]
+    if len(outs) != len(folders):
+        raise ValueError(f"outs: {len(outs)} folders for {len(folders)} scans")
+    started = connect(address, workers)
+    try:
+        view_task = ray.remote(max_retries=RETRIES)(_process_view)
+        scan_task = ray.remote(max_retries=RETRIES)(_process_scan)
+        refs = []
+        for scan, out in zip(folders, outs):
+            packs = [view_task.remote(str(scan), v, force) for v in _complete_views(scan)]
+            refs.append(scan_task.remote(str(scan), str(out), force, *packs))
+        return ray.get(refs)
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def _solve_leaves(points, normals, weights, tasks, grid):
+    return _scanrig._adfft_solve(points, normals, weights, tasks, grid)
+
+
+def reconstruct(
+    points: np.ndarray,
+    normals: np.ndarray,
+    *,
+    method: str = "adfft",
+    depth: Optional[int] = None,
+    error: Optional[float] = None,
+    leaves_per_task: Optional[int] = None,
+    address: Optional[str] = None,
+    workers: Optional[int] = None,
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+    """AdFFT with the leaves solved as Ray tasks: the same (V, F, report) as
+    ``scanrig.reconstruct(points, normals, method="adfft", ...)``, the report with a
+    ``"distributed"`` entry (leaves, tasks, seconds solving, MB sent and returned). The samples go
+    into the object store once; each task solves ``leaves_per_task`` leaves (default: four tasks per
+    CPU)."""
+    if method != "adfft":
+        raise ValueError(f'method: only "adfft" has leaves to spread over workers, got {method!r}')
+    if leaves_per_task is not None and leaves_per_task < 1:
+        raise ValueError(f"leaves_per_task must be at least 1, got {leaves_per_task}")
+    started = connect(address, workers)
+    try:
+        task = ray.remote(max_retries=RETRIES)(_solve_leaves)
+        shared = (ray.put(np.ascontiguousarray(points)), ray.put(np.ascontiguousarray(normals)))
+
+        spread: dict[str, Any] = {}
+
+        def solve(tasks, grid, weights):
+            start = time.perf_counter()
+            w = ray.put(weights)
+            per = leaves_per_task or max(1, -(-len(tasks) // (4 * int(ray.cluster_resources().get("CPU", 1)))))
+            batches = [tasks[i : i + per] for i in range(0, len(tasks), per)]
+            done = ray.get([task.remote(shared[0], shared[1], w, b, grid) for b in batches])
+            solved = [leaf for batch in done for leaf in batch]
+            spread.update(
+                leaves=len(tasks),
+                tasks=len(batches),
+                seconds_solving=time.perf_counter() - start,
+                sent_mb=(points.nbytes + normals.nbytes + weights.nbytes + tasks.nbytes) / 1e6,
+                returned_mb=sum(sum(a.nbytes for a in leaf[2:]) for leaf in solved) / 1e6,
+            )
+            return solved
+
+        v, f, report = _scanrig._adfft_with(points, normals, solve, depth=depth, error=error)
+        report["distributed"] = spread
+        return v, f, report
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m scanrig.distributed", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--address", help="a Ray cluster (HOST:PORT, or 'auto'); default: start a local one")
+    parser.add_argument("--workers", type=int, help="CPUs of the local cluster (default: all)")
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("process", help="process scan folders (each into SCAN/processed)")
+    p.add_argument("scans", nargs="+", type=pathlib.Path)
+    p.add_argument("--force", action="store_true", help="go on past implausible registrations, with warnings")
+    r = sub.add_parser("reconstruct", help="AdFFT of an oriented cloud (PLY, E57, ...) into a mesh")
+    r.add_argument("cloud", type=pathlib.Path)
+    r.add_argument("-o", "--out", type=pathlib.Path, required=True)
+    r.add_argument("--depth", type=int)
+    r.add_argument("--error", type=float)
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "process":
+            reports = process_scans(args.scans, force=args.force, address=args.address, workers=args.workers)
+            for scan, rep in zip(args.scans, reports):
+                print(f"{scan}: {rep['total_seconds']:.1f} s, outputs in {scan / 'processed'}")
+        else:
+            cloud = _scanrig.read_cloud(args.cloud)
+            if cloud["normals"] is None:
+                raise _scanrig.StageError(f"{args.cloud} has no normals: reconstruction needs oriented points")
+            v, f, rep = reconstruct(
+                cloud["points"], cloud["normals"], depth=args.depth, error=args.error, address=args.address,
+                workers=args.workers,
+            )
+            _scanrig.write_mesh(args.out, v, f)
+            print(f"{args.out}: {len(v)} vertices, {len(f)} triangles")
+    except (_scanrig.ScanrigError, ValueError, ImportError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
