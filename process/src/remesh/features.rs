@@ -2,34 +2,26 @@
 //! line constraints (eq. 6.3) so quads follow creases. Boundary edges and non-manifold edges are not
 //! features (they have no dihedral angle, or no single one).
 
+use super::edge_faces::EdgeFaces;
 use rig::TriMesh;
-use rig::math::{Real, Vector3};
+use rig::math::Real;
 use std::collections::HashMap;
 
 /// The edges `(a, b)` with `a < b` whose two faces' normals differ by more than `min_angle_deg`.
 pub fn feature_edges(mesh: &TriMesh, min_angle_deg: Real) -> Vec<(usize, usize)> {
-    let normal = |f: &[u32; 3]| {
-        let [a, b, c] = f.map(|i| mesh.vertices[i as usize]);
-        (b - a).cross(&(c - a))
+    let normal = |f: u32| {
+        let [a, b, c] = mesh.faces[f as usize].map(|i| mesh.vertices[i as usize]);
+        (b - a).cross(&(c - a)).normalize()
     };
-    let mut faces_of: HashMap<(u32, u32), Vec<Vector3>> = HashMap::new();
-    for f in &mesh.faces {
-        let n = normal(f);
-        for k in 0..3 {
-            let (a, b) = (f[k], f[(k + 1) % 3]);
-            faces_of.entry((a.min(b), a.max(b))).or_default().push(n);
-        }
-    }
     let cos_limit = min_angle_deg.to_radians().cos();
-    let mut edges: Vec<(usize, usize)> = faces_of
-        .into_iter()
-        .filter(|(_, ns)| {
-            ns.len() == 2 && {
-                let (n0, n1) = (ns[0].normalize(), ns[1].normalize());
-                n0.iter().all(|c| c.is_finite()) && n1.iter().all(|c| c.is_finite()) && n0.dot(&n1) < cos_limit
-            }
+    let mut edges: Vec<(usize, usize)> = EdgeFaces::new(mesh)
+        .edges()
+        .filter(|(_, fs)| {
+            let &[f, g] = *fs else { return false };
+            let (n0, n1) = (normal(f), normal(g));
+            n0.iter().all(|c| c.is_finite()) && n1.iter().all(|c| c.is_finite()) && n0.dot(&n1) < cos_limit
         })
-        .map(|((a, b), _)| (a as usize, b as usize))
+        .map(|(e, _)| e)
         .collect();
     edges.sort_unstable();
     edges

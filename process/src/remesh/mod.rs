@@ -4,6 +4,7 @@
 //! ([`surface`], [`streamline`], [`seeding`]), the quads their crossings bound ([`quad_graph`], [`polygon_split`]) and
 //! how good they are ([`quality`]); [`quad_remesh::remesh`] runs them all.
 
+pub mod edge_faces;
 pub mod features;
 pub mod half_split;
 pub mod harmonic;

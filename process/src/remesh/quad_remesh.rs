@@ -7,6 +7,7 @@
 //! unconstrained field's gradient become contours (eq. 6.3, `⟨∇u, t⟩ = 0`), the others gradient lines
 //! (`⟨∇u, n × t⟩ = 0` in the faces beside them). Both kinds are rows of the same least-squares system.
 
+use super::edge_faces::EdgeFaces;
 use super::features::{chain, feature_edges};
 use super::half_split::split_doubly_constrained;
 use super::harmonic::{FieldError, face_gradients, field_with_rows, harmonic_field};
@@ -186,7 +187,7 @@ pub fn streamlines(
     if let Some(angle) = params.feature_angle {
         // Short, soft creases are noise on scanned surfaces, not features to follow; short sharp
         // ones (a machined step) are kept.
-        let faces_of = edge_faces(mesh);
+        let faces_of = EdgeFaces::new(mesh);
         let length =
             |p: &Vec<usize>| p.windows(2).map(|w| (mesh.vertices[w[1]] - mesh.vertices[w[0]]).norm()).sum::<Real>();
         let sharp = (1.5 * angle).max(60.0);
@@ -213,7 +214,7 @@ pub fn streamlines(
     let fixed = poles(&work, &on_lines, 3.0 * spacing);
     let free = harmonic_field(&work, conductivity.as_deref(), &fixed)?;
     let free_grad = face_gradients(&work, &free);
-    let faces_of_edge = edge_faces(&work);
+    let faces_of_edge = EdgeFaces::new(&work);
     let mut families = Vec::with_capacity(paths.len());
     let mut rows: Vec<Vec<(usize, Real)>> = Vec::new();
     for path in &paths {
@@ -224,7 +225,7 @@ pub fn streamlines(
                 Family::Contour => rows.push(vec![(a, 1.0), (b, -1.0)]),
                 Family::Gradient => {
                     let t = work.vertices[b] - work.vertices[a];
-                    for &f in faces_of_edge.get(&(a.min(b) as u32, a.max(b) as u32)).into_iter().flatten() {
+                    for &f in faces_of_edge.get(a, b) {
                         let across = s.normal[f as usize].cross(&t);
                         let face = work.faces[f as usize];
                         rows.push(
@@ -457,30 +458,13 @@ fn poles(mesh: &TriMesh, constrained: &[usize], clearance: Real) -> Vec<(usize, 
     fixed
 }
 
-/// The faces on each edge `(a, b)`, `a < b`.
-fn edge_faces(mesh: &TriMesh) -> HashMap<(u32, u32), Vec<u32>> {
-    let mut m: HashMap<(u32, u32), Vec<u32>> = HashMap::with_capacity(mesh.faces.len() * 3 / 2);
-    for (i, f) in mesh.faces.iter().enumerate() {
-        for k in 0..3 {
-            let (a, b) = (f[k], f[(k + 1) % 3]);
-            m.entry((a.min(b), a.max(b))).or_default().push(i as u32);
-        }
-    }
-    m
-}
-
 /// Which family can follow a path: contours if the field mostly crosses it (length-weighted mean
 /// |cos| between path and gradient below cos 45°), gradient lines otherwise.
-fn path_family(
-    mesh: &TriMesh,
-    faces_of_edge: &HashMap<(u32, u32), Vec<u32>>,
-    grad: &[rig::math::Vector3],
-    path: &[usize],
-) -> Family {
+fn path_family(mesh: &TriMesh, faces_of_edge: &EdgeFaces, grad: &[rig::math::Vector3], path: &[usize]) -> Family {
     let (mut along, mut total) = (0.0, 0.0);
     for w in path.windows(2) {
         let t = mesh.vertices[w[1]] - mesh.vertices[w[0]];
-        for &f in faces_of_edge.get(&(w[0].min(w[1]) as u32, w[0].max(w[1]) as u32)).into_iter().flatten() {
+        for &f in faces_of_edge.get(w[0], w[1]) {
             let g = grad[f as usize];
             if g.norm() > 0.0 {
                 along += (g.dot(&t) / g.norm()).abs();
@@ -492,15 +476,10 @@ fn path_family(
 }
 
 /// A constraint path as a line along mesh edges.
-fn path_line(
-    mesh: &TriMesh,
-    faces_of_edge: &HashMap<(u32, u32), Vec<u32>>,
-    path: &[usize],
-    family: Family,
-) -> Option<Line> {
+fn path_line(mesh: &TriMesh, faces_of_edge: &EdgeFaces, path: &[usize], family: Family) -> Option<Line> {
     let mut faces = Vec::with_capacity(path.len());
     for w in path.windows(2) {
-        faces.push(*faces_of_edge.get(&(w[0].min(w[1]) as u32, w[0].max(w[1]) as u32))?.first()?);
+        faces.push(*faces_of_edge.get(w[0], w[1]).first()?);
     }
     let closed = path.len() > 2 && path[0] == path[path.len() - 1];
     Some(Line {
@@ -526,7 +505,7 @@ fn boundary_lines(s: &Surface) -> Vec<Line> {
             }
         }
     }
-    let faces_of_edge = edge_faces(mesh);
+    let faces_of_edge = EdgeFaces::new(mesh);
     let mut starts: Vec<u32> = from.keys().copied().collect();
     starts.sort_unstable();
     let mut used: HashSet<u32> = HashSet::new();
@@ -555,14 +534,14 @@ fn boundary_lines(s: &Surface) -> Vec<Line> {
 }
 
 /// The mean angle, in degrees, between the normals of the two faces along a path's edges.
-fn mean_dihedral(mesh: &TriMesh, faces_of: &HashMap<(u32, u32), Vec<u32>>, path: &[usize]) -> Real {
+fn mean_dihedral(mesh: &TriMesh, faces_of: &EdgeFaces, path: &[usize]) -> Real {
     let normal = |f: u32| {
         let [a, b, c] = mesh.faces[f as usize].map(|i| mesh.vertices[i as usize]);
         (b - a).cross(&(c - a))
     };
     let (mut sum, mut n) = (0.0, 0);
     for w in path.windows(2) {
-        if let Some([f, g]) = faces_of.get(&(w[0].min(w[1]) as u32, w[0].max(w[1]) as u32)).map(|v| v.as_slice()) {
+        if let [f, g] = faces_of.get(w[0], w[1]) {
             sum += normal(*f).angle(&normal(*g)).to_degrees();
             n += 1;
         }
