@@ -6,6 +6,7 @@ use crate::grid_normals;
 use crate::icp::IcpError;
 use crate::multiview::{MultiViewParams, MultiViewReport, View, refine_views};
 use crate::placement::{CropParams, merge, place_view};
+use rayon::prelude::*;
 use rig::math::{Isometry3, Real};
 use rig::{PointCloud, RangeGrid, TurntableAxis};
 use serde::Serialize;
@@ -151,29 +152,33 @@ pub fn register_grids(
     crop: &CropParams,
     params: &RegisterParams,
 ) -> Result<(PointCloud, Vec<ViewPose>, MultiViewReport), IcpError> {
-    let views: Vec<View> = grids.iter().map(|(_, _, g)| view_of((*g).clone())).collect();
+    let views: Vec<View> = grids.par_iter().map(|(_, _, g)| view_of((*g).clone())).collect();
     let initial: Vec<Isometry3> = grids.iter().map(|&(_, a, _)| axis.object_from_camera(a)).collect();
     let (poses, report) = refine_views(&views, &initial, None, &params.refine)?;
-    let mut clouds = Vec::new();
-    let mut view_poses = Vec::new();
-    for (k, &(v, angle, grid)) in grids.iter().enumerate() {
-        let n = views[k].points.len().max(1) as Real;
-        let c = rig::Point3::from(views[k].points.iter().fold(rig::Vector3::zeros(), |a, p| a + p.coords) / n);
-        let rotation_change_deg = (poses[k].rotation.inverse() * initial[k].rotation).angle().to_degrees();
-        let shift_mm = (poses[k] * c - initial[k] * c).norm();
-        let refused = !params.tolerance.allows(rotation_change_deg, shift_mm);
-        let pose = if refused { initial[k] } else { poses[k] };
-        clouds.push(place_view(grid, &pose, crop, v as u32));
-        let m = pose.to_homogeneous();
-        view_poses.push(ViewPose {
-            view: v,
-            laser: None,
-            angle_deg: angle,
-            object_from_camera: std::array::from_fn(|r| std::array::from_fn(|col| m[(r, col)])),
-            rotation_change_deg,
-            shift_mm,
-            refused,
-        });
-    }
+    // Views placed side by side (each is independent of the others), merged in view order.
+    let placed: Vec<(PointCloud, ViewPose)> = grids
+        .par_iter()
+        .enumerate()
+        .map(|(k, &(v, angle, grid))| {
+            let n = views[k].points.len().max(1) as Real;
+            let c = rig::Point3::from(views[k].points.iter().fold(rig::Vector3::zeros(), |a, p| a + p.coords) / n);
+            let rotation_change_deg = (poses[k].rotation.inverse() * initial[k].rotation).angle().to_degrees();
+            let shift_mm = (poses[k] * c - initial[k] * c).norm();
+            let refused = !params.tolerance.allows(rotation_change_deg, shift_mm);
+            let pose = if refused { initial[k] } else { poses[k] };
+            let m = pose.to_homogeneous();
+            let view_pose = ViewPose {
+                view: v,
+                laser: None,
+                angle_deg: angle,
+                object_from_camera: std::array::from_fn(|r| std::array::from_fn(|col| m[(r, col)])),
+                rotation_change_deg,
+                shift_mm,
+                refused,
+            };
+            (place_view(grid, &pose, crop, v as u32), view_pose)
+        })
+        .collect();
+    let (clouds, view_poses): (Vec<PointCloud>, Vec<ViewPose>) = placed.into_iter().unzip();
     Ok((merge(clouds), view_poses, report))
 }
