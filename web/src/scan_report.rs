@@ -12,6 +12,7 @@ use process::mesh_distance::MeshDistance;
 use process::pipeline::layout::{self, Layout};
 use process::pipeline::stages::turntable_pose;
 use process::preview::turbo;
+use rayon::prelude::*;
 use rig::math::Real;
 use rig::{Method, Rig};
 use std::fmt::Write as _;
@@ -406,17 +407,27 @@ fn views(r: &ProcessReport, rig: Option<&Rig>, extent: Option<Extent>, lay: &Lay
     h.push_str("</div>");
     // Depth images, one colour scale over the object's depth in every view. Each grid is read,
     // reduced to its thumbnail and dropped: 36 full grids at 1280 × 1024 would hold gigabytes.
-    let mut thumbs = Vec::new();
-    for v in &r.views {
-        // The grids this run handed on: denoised where denoising ran, else the raw ones.
-        let name = if v.denoise.is_some() { Layout::denoised(v.view) } else { Layout::grid(v.view) };
-        if !lay.path(&name).is_file() {
-            continue;
-        }
-        let grid = rig::ply::read_range_grid(&lay.path(&name))?;
-        let mask = on_object(&grid, rig, extent, v.angle_deg);
-        thumbs.push(depth_thumb(v.view, name, &grid, &mask));
-    }
+    // (Two at a time on two cores: each grid is parsed by one thread.)
+    let thumbs: Vec<DepthThumb> = r
+        .views
+        .par_iter()
+        .map(|v| {
+            // The grids this run handed on: denoised where denoising ran, else the raw ones.
+            let name = if v.denoise.is_some() { Layout::denoised(v.view) } else { Layout::grid(v.view) };
+            if !lay.path(&name).is_file() {
+                return Ok(None);
+            }
+            let grid = rig::ply::read_range_grid(&lay.path(&name))?;
+            let mask = on_object(&grid, rig, extent, v.angle_deg);
+            Ok(Some(depth_thumb(v.view, name, &grid, &mask)))
+        })
+        .collect::<Vec<Result<Option<DepthThumb>, PageError>>>()
+        .into_iter()
+        // The first unreadable grid in view order is the one named, whichever thread met it first.
+        .collect::<Result<Vec<Option<DepthThumb>>, PageError>>()?
+        .into_iter()
+        .flatten()
+        .collect();
     let ranges: Vec<(Real, Real)> = thumbs.iter().filter_map(|t| t.range).collect();
     let lo = ranges.iter().map(|r| r.0).fold(Real::INFINITY, Real::min);
     let hi = ranges.iter().map(|r| r.1).fold(Real::NEG_INFINITY, Real::max);
@@ -482,7 +493,7 @@ fn scene(lay: &Layout, truth: Option<&Path>) -> Result<(Scene, Option<Extent>, O
             let diag = t.bounding_box().map_or(1.0, |b| b.diagonal());
             let index = MeshDistance::new(&t, 2.0);
             // Unbounded: a vertex far off (a bad registration) must count with its whole distance.
-            let err: Vec<Real> = mesh.vertices.iter().map(|v| index.distance(v)).collect();
+            let err: Vec<Real> = mesh.vertices.par_iter().map(|v| index.distance(v)).collect();
             let mut above: Vec<Real> =
                 mesh.vertices.iter().zip(&err).filter(|(v, _)| v.z > 3.0).map(|(_, e)| *e).collect();
             above.sort_by(Real::total_cmp);

@@ -8,6 +8,7 @@
 
 use crate::page::{esc, json_text};
 use base64::Engine as _;
+use rayon::prelude::*;
 use rig::math::{Point3, Real};
 use serde_json::{Value, json};
 use std::collections::HashMap;
@@ -295,11 +296,17 @@ impl Scene {
             json_text(&serde_json::to_string(&spec).unwrap_or_default())
         );
         let b64 = base64::engine::general_purpose::STANDARD;
-        for (i, b) in self.blocks.iter().enumerate() {
-            let bytes = match b {
+        // Compressed side by side: deflating a 3 M-point scene's blocks one after another was a
+        // third of the page's time.
+        let encoded: Vec<String> = self
+            .blocks
+            .par_iter()
+            .map(|b| match b {
                 Block::Bytes(v) => b64.encode(gzip(v)),
                 Block::Positions(p) => b64.encode(gzip(&quantise(p, lo, hi))),
-            };
+            })
+            .collect();
+        for (i, bytes) in encoded.iter().enumerate() {
             let _ = write!(h, "<script type=\"application/octet-stream\" id=\"block-{i}\">{bytes}</script>");
         }
         h

@@ -4,6 +4,7 @@ use super::header::{Encoding, ScalarType};
 use crate::error::{Error, write_atomic};
 use crate::math::{Point3, Vector3};
 use crate::{PointCloud, PolyMesh, RangeGrid, Sensor, SparseView};
+use rayon::prelude::*;
 use std::path::Path;
 
 /// The type of written coordinates and normals.
@@ -167,21 +168,35 @@ pub fn cloud_to_bytes(cloud: &PointCloud, opts: &WriteOptions) -> Vec<u8> {
     if cloud.view_id.is_some() {
         props.push(format!("{} view_id", id_type.name()));
     }
-    let mut body =
-        Body { out: header(opts, &[("vertex", cloud.len(), props)]), encoding: opts.encoding, first_on_line: true };
-    for (i, p) in cloud.positions.iter().enumerate() {
-        write_point(&mut body, t, p, cloud.normals.as_ref().map(|n| &n[i]));
-        write_rgb(&mut body, cloud.colors.as_ref().map(|c| &c[i]));
-        if let Some(c) = &cloud.confidence {
-            body.value(ScalarType::F32, c[i] as f64);
-        }
-        if let Some(v) = &cloud.view_id {
-            body.value(id_type, v[i] as f64);
-        }
-        body.end_entry();
-    }
-    body.out
+    let mut out = header(opts, &[("vertex", cloud.len(), props)]);
+    // Runs of points written side by side and joined in order: the same bytes as one after another
+    // (each entry starts a line afresh), in a fraction of the time on millions of points.
+    let runs: Vec<Vec<u8>> = (0..cloud.len().div_ceil(CHUNK_POINTS))
+        .into_par_iter()
+        .map(|run| {
+            let start = run * CHUNK_POINTS;
+            let mut body = Body { out: Vec::new(), encoding: opts.encoding, first_on_line: true };
+            for i in start..(start + CHUNK_POINTS).min(cloud.len()) {
+                write_point(&mut body, t, &cloud.positions[i], cloud.normals.as_ref().map(|n| &n[i]));
+                write_rgb(&mut body, cloud.colors.as_ref().map(|c| &c[i]));
+                if let Some(c) = &cloud.confidence {
+                    body.value(ScalarType::F32, c[i] as f64);
+                }
+                if let Some(v) = &cloud.view_id {
+                    body.value(id_type, v[i] as f64);
+                }
+                body.end_entry();
+            }
+            body.out
+        })
+        .collect();
+    out.reserve(runs.iter().map(Vec::len).sum());
+    runs.iter().for_each(|r| out.extend_from_slice(r));
+    out
 }
+
+/// Points per run of a cloud's body written on one thread.
+const CHUNK_POINTS: usize = 1 << 16;
 
 /// A polygon mesh as PLY bytes: vertices (with normals and `red green blue` where present), faces as
 /// `list uchar int vertex_indices` (quads as 4-lists). A face with more than 255 corners does not fit a
