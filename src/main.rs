@@ -25,6 +25,7 @@ use clap::Parser;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    process::pipeline::memory::limit_arenas();
     // A panic is a bug in scanrig, never the user's doing: say so in one line, with where it happened,
     // instead of Rust's panic text and backtrace.
     std::panic::set_hook(Box::new(|info| {

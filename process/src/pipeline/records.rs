@@ -165,6 +165,37 @@ impl Decision {
     }
 }
 
+/// One output's record as it stood, to decide on ([`Records::decider`]).
+pub struct Decider {
+    redo: bool,
+    path: PathBuf,
+    record: Option<Record>,
+}
+
+impl Decider {
+    /// Whether the output can be reused for `now`.
+    pub fn decide(self, now: &Fingerprint) -> Decision {
+        if self.redo {
+            return Decision::Run("--redo".into());
+        }
+        let Some(record) = self.record else {
+            return Decision::Run(if self.path.exists() {
+                "no record of how the file was made".into()
+            } else {
+                "not made yet".into()
+            });
+        };
+        if let Some(why) = now.difference(&record.fingerprint) {
+            return Decision::Run(why);
+        }
+        match Hash::of_file(&self.path) {
+            None => Decision::Run("the file is missing".into()),
+            Some(h) if h != record.hash => Decision::Run("the file was changed since it was written".into()),
+            Some(_) => Decision::Reuse(record),
+        }
+    }
+}
+
 /// The records of one output folder.
 #[derive(Debug)]
 pub struct Records {
@@ -189,24 +220,13 @@ impl Records {
 
     /// Whether `name` (relative to the output folder) can be reused for `now`.
     pub fn decide(&self, name: &str, now: &Fingerprint) -> Decision {
-        if self.redo {
-            return Decision::Run("--redo".into());
-        }
-        let Some(record) = self.file.outputs.get(name) else {
-            return Decision::Run(if self.out.join(name).exists() {
-                "no record of how the file was made".into()
-            } else {
-                "not made yet".into()
-            });
-        };
-        if let Some(why) = now.difference(&record.fingerprint) {
-            return Decision::Run(why);
-        }
-        match Hash::of_file(&self.out.join(name)) {
-            None => Decision::Run("the file is missing".into()),
-            Some(h) if h != record.hash => Decision::Run("the file was changed since it was written".into()),
-            Some(_) => Decision::Reuse(record.clone()),
-        }
+        self.decider(name).decide(now)
+    }
+
+    /// What [`Records::decide`] needs of `name`, owned: the decision (which reads and hashes the
+    /// whole file) can then be made without holding whatever guards the records.
+    pub fn decider(&self, name: &str) -> Decider {
+        Decider { redo: self.redo, path: self.out.join(name), record: self.file.outputs.get(name).cloned() }
     }
 
     /// The record of `name`, if any.

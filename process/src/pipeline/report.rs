@@ -121,6 +121,10 @@ pub struct ProcessReport {
     pub outputs: Vec<String>,
     /// Seconds in all.
     pub total_seconds: Real,
+    /// Wall-clock seconds of the views' stages (several views run at once, so this is less than
+    /// the sum of the views' own `seconds`); absent in reports written before it was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub views_seconds: Option<Real>,
     /// The resident peak while the views were decoded, triangulated and denoised (MB).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub views_peak_mb: Option<Real>,
@@ -152,7 +156,7 @@ impl ProcessReport {
     pub fn stage_rows(&self) -> Vec<StageRow> {
         let mut rows = vec![StageRow {
             stage: "views".into(),
-            seconds: self.views.iter().map(|v| v.seconds).sum(),
+            seconds: self.views_seconds.unwrap_or_else(|| self.views.iter().map(|v| v.seconds).sum()),
             peak_mb: self.views_peak_mb,
             points_in: None,
             points_out: Some(self.views.iter().map(|v| v.points).sum()),
@@ -201,6 +205,7 @@ impl ProcessReport {
     pub fn keep_sections_of(&mut self, old: ProcessReport) {
         if self.views.is_empty() {
             self.views = old.views;
+            self.views_seconds = old.views_seconds;
         }
         self.merge = self.merge.take().or(old.merge);
         self.register = self.register.take().or(old.register);

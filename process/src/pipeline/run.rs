@@ -23,12 +23,15 @@ use serde::de::DeserializeOwned;
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Mutex, MutexGuard, OnceLock, PoisonError};
 use std::time::Instant;
 
 /// The open output folder: where files go, what is recorded of them, how they are written.
 struct Out {
     layout: Layout,
-    records: Records,
+    /// Behind a lock: views write their outputs from several threads.
+    records: Mutex<Records>,
     opts: WriteOptions,
     /// The rig has a turntable: clouds and meshes are in its object frame.
     turntable: bool,
@@ -39,14 +42,30 @@ impl Out {
         self.layout.path(name)
     }
 
+    fn records(&self) -> MutexGuard<'_, Records> {
+        self.records.lock().unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Whether `name` can be reused for `fp` ([`Records::decide`]); the file is hashed outside the
+    /// lock, so views deciding at once do not queue behind each other's reads.
+    fn decide(&self, name: &str, fp: &Fingerprint) -> Decision {
+        let decider = self.records().decider(name);
+        decider.decide(fp)
+    }
+
+    /// Writes the records as they stand.
+    fn save(&self) -> Result<(), Error> {
+        Ok(self.records().save()?)
+    }
+
     /// Writes `bytes` as `name` atomically and records how it was made; returns the content hash.
-    fn put(&mut self, name: &str, bytes: &[u8], fp: Fingerprint, report: &impl Serialize) -> Result<Hash, Error> {
+    fn put(&self, name: &str, bytes: &[u8], fp: Fingerprint, report: &impl Serialize) -> Result<Hash, Error> {
         // Forget the old record first: a crash between the write and the save then leaves no record
         // claiming the new file is the old one.
-        self.records.remove(name);
+        self.records().remove(name);
         rig::write_atomic(&self.path(name), bytes)?;
         let hash = Hash::of(bytes);
-        self.records.insert(name, fp, hash, serde_json::to_value(report).expect("reports serialise"));
+        self.records().insert(name, fp, hash, serde_json::to_value(report).expect("reports serialise"));
         Ok(hash)
     }
 
@@ -54,7 +73,7 @@ impl Out {
     /// exactly what the file says — `as_written` where it can tell without parsing (the same values,
     /// a fraction of the time on millions of points), else read back by `read`.
     fn put_ply<T>(
-        &mut self,
+        &self,
         name: &str,
         bytes: Vec<u8>,
         fp: Fingerprint,
@@ -71,7 +90,7 @@ impl Out {
     }
 
     fn put_grid(
-        &mut self,
+        &self,
         name: &str,
         grid: &RangeGrid,
         fp: Fingerprint,
@@ -82,7 +101,7 @@ impl Out {
     }
 
     fn put_cloud(
-        &mut self,
+        &self,
         name: &str,
         cloud: &PointCloud,
         fp: Fingerprint,
@@ -104,7 +123,7 @@ impl Out {
     }
 
     fn put_sparse(
-        &mut self,
+        &self,
         name: &str,
         view: &SparseView,
         fp: Fingerprint,
@@ -128,14 +147,14 @@ impl Out {
     /// there was made from these very bytes; `make` gets what the source holds (read from the file when
     /// the caller has not got it) and gives the copy's bytes.
     fn export(
-        &mut self,
+        &self,
         name: &str,
         source: (&str, Hash),
         held: Option<&rig::PolyMesh>,
         make: impl Fn(&rig::PolyMesh) -> Vec<u8>,
     ) -> Result<(), Error> {
         let fp = Fingerprint::new(json!({ "export": name })).input(source.0, source.1);
-        if let Decision::Run(_) = self.records.decide(name, &fp) {
+        if let Decision::Run(_) = self.decide(name, &fp) {
             let bytes = match held {
                 Some(m) => make(m),
                 None => make(&rig::read_mesh(&self.path(source.0))?),
@@ -281,7 +300,7 @@ pub fn process_scan(
     let lock = Lock::acquire(out)?;
     let mut o = Out {
         layout,
-        records: Records::open(out, params.redo),
+        records: Mutex::new(Records::open(out, params.redo)),
         opts: WriteOptions::default().with_units("mm"),
         turntable: rig.turntable.is_some(),
     };
@@ -316,253 +335,38 @@ pub fn process_scan(
         return Err(Error::NoCompleteViews { scan: scan.to_path_buf(), views: manifest.views.len() });
     }
 
+    // The views' stages, then what they said, in view order.
+    let cx = ViewCx {
+        scan,
+        rig: &rig,
+        rig_path: &rig_path,
+        manifest: &manifest,
+        params,
+        triangulator: OnceLock::new(),
+        windows: Mutex::new(BTreeMap::new()),
+    };
+    let t_views = Instant::now();
+    let views_done = run_views(&o, &cx, &complete, &mut progress)?;
+    report.views_seconds = Some(t_views.elapsed().as_secs_f64());
+    let windows = cx.windows.into_inner().unwrap_or_else(PoisonError::into_inner);
+    report.warnings.extend(windows.into_values().flat_map(|(_, w)| w));
     let mut outputs: Vec<ViewOutput> = Vec::new();
-    let mut triangulator: Option<Triangulator> = None;
-    // Each laser's working-volume windows, computed once per run where a view needs them.
-    let mut windows: BTreeMap<usize, Option<RowWindows>> = BTreeMap::new();
     // Per laser, the views whose capture lacks its frame.
     let mut missing_laser_frames: BTreeMap<usize, Vec<usize>> = BTreeMap::new();
     // Views without a texture frame: colour only holds if every view has one (merge drops it otherwise).
     let mut untextured: Vec<usize> = Vec::new();
-    for (done, &v) in complete.iter().enumerate() {
-        let t0 = Instant::now();
-        let view = &manifest.views[v];
-        let frames: Vec<(Pattern, PathBuf)> = view
-            .frames
-            .iter()
-            .map(|f| Ok((f.pattern, Manifest::inside(scan, &f.file, &format!("views[{v}].frames"))?)))
-            .collect::<Result<_, Error>>()?;
-        let mut vr = ViewReport { view: v, angle_deg: view.angle_deg, reused: true, ..Default::default() };
-        // The view's colour frame, if the capture took one; read (in colour, turned) only when needed.
-        if !frames.iter().any(|f| f.0 == Pattern::Texture) {
+    for d in views_done {
+        let v = d.report.view;
+        if d.untextured {
             untextured.push(v);
         }
-        let texture: Vec<(Pattern, PathBuf)> =
-            frames.iter().filter(|f| f.0 == Pattern::Texture).take(1).cloned().collect();
-        let texture_hashes = frame_hashes(&texture, scan)?;
-        let mut texture_image: Option<Image8> = None;
-        let read_texture = |cache: &mut Option<Image8>| -> Result<Option<Image8>, Error> {
-            if cache.is_none() && !texture.is_empty() {
-                *cache = load_colour_frames(&texture, &rig.image)?.pop().map(|t| t.1);
-            }
-            Ok(cache.clone())
-        };
-        match manifest.method {
-            Method::StructuredLight => {
-                let projector = rig.projector.as_ref().ok_or_else(|| Error::NoProjector { rig: rig_path.clone() })?;
-                let (pw, ph) = (projector.lens.width, projector.lens.height);
-                // Decode.
-                let t = Instant::now();
-                let fp = with_inputs(
-                    Fingerprint::new(
-                        json!({"decode": params.decode, "projector_px": [pw, ph], "rig.image": rig.image}),
-                    ),
-                    &frame_hashes(&frames, scan)?,
-                );
-                let name = Layout::decode(v);
-                let decision = o.records.decide(&name, &fp);
-                let (map_hash, mut map) = match &decision {
-                    Decision::Reuse(rec) => {
-                        vr.decode = Some(section(&decision, 0.0, recorded(&rec.report)));
-                        (rec.hash, None)
-                    }
-                    Decision::Run(_) => {
-                        let imgs = load_frames(&frames, &rig.image)?;
-                        let refs: Vec<(Pattern, &Image8)> = imgs.iter().map(|(p, i)| (*p, i)).collect();
-                        let (map, dr) = stages::decode(&refs, (pw, ph), &params.decode)
-                            .map_err(|source| Error::View { view: v, stage: Stage::Decode, source })?;
-                        let hash = o.put(&name, &rig::npy::to_bytes(&map.to_npy()), fp, &dr)?;
-                        // Previews are for looking at: fast compression (deflating them was a sixth of a view's time).
-                        rig::image::write_png(&o.path(&Layout::projector_preview(v)), &map.preview(pw, ph), true)?;
-                        vr.decode = Some(section(&decision, t.elapsed().as_secs_f64(), dr));
-                        (hash, Some(map))
-                    }
-                };
-                vr.reused &= decision.reused();
-                report.outputs.push(name.clone());
-                if params.until < Stage::Triangulate {
-                    // Stopping after decoding still reports the view and records its map.
-                    vr.seconds = t0.elapsed().as_secs_f64();
-                    report.views.push(vr);
-                    o.records.save()?;
-                    progress(Stage::Decode, done + 1, complete.len());
-                    continue;
-                }
-                // Triangulate.
-                let t = Instant::now();
-                let fp = with_inputs(
-                    Fingerprint::new(json!({
-                        "triangulate": params.triangulate,
-                        "normal_max_jump_mm": params.normal_max_jump_mm,
-                        "rig.camera": rig_part(&rig.camera),
-                        "rig.projector": rig_part(projector),
-                    }))
-                    .input(&name, map_hash),
-                    &texture_hashes,
-                );
-                let grid_name = Layout::grid(v);
-                let decision = o.records.decide(&grid_name, &fp);
-                let (mut hash, mut grid) = match &decision {
-                    Decision::Reuse(rec) => {
-                        vr.triangulate = Some(section(&decision, 0.0, recorded::<GridReport>(&rec.report)));
-                        (rec.hash, None)
-                    }
-                    Decision::Run(_) => {
-                        let map = match map.take() {
-                            Some(m) => m,
-                            None => read_map(&o.path(&name))?,
-                        };
-                        // Checked before the rig's ray tables are built: a rig of the wrong camera
-                        // (or an absurd size) must fail here, not allocate.
-                        let camera = (rig.camera.width, rig.camera.height);
-                        if (map.width, map.height) != (camera.0 as usize, camera.1 as usize) {
-                            let source = stages::StageError::MapSize { map: (map.width, map.height), camera };
-                            return Err(Error::View { view: v, stage: Stage::Triangulate, source });
-                        }
-                        let tri = triangulator.get_or_insert_with(|| Triangulator::new(&rig.camera, projector));
-                        let (mut grid, gr) =
-                            stages::triangulate(&map, tri, &params.triangulate, params.normal_max_jump_mm)
-                                .map_err(|source| Error::View { view: v, stage: Stage::Triangulate, source })?;
-                        if let Some(t) = read_texture(&mut texture_image)? {
-                            grid.colors = stages::grid_colours(&grid, &t);
-                            if grid.colors.is_none() {
-                                report.warnings.push(format!(
-                                    "view {v}: its texture frame is {}x{}, not the camera's {}x{}: the view has no colour",
-                                    t.width, t.height, grid.width, grid.height
-                                ));
-                            }
-                        }
-                        let (grid, hash) = o.put_grid(&grid_name, &grid, fp, &gr)?;
-                        let depth = crate::preview::depth_image(&grid);
-                        rig::image::write_png(&o.path(&Layout::depth_preview(v)), &depth, true)?;
-                        vr.triangulate = Some(section(&decision, t.elapsed().as_secs_f64(), gr));
-                        (hash, Some(grid))
-                    }
-                };
-                vr.reused &= decision.reused();
-                vr.points = vr.triangulate.as_ref().map_or(0, |s| s.report.points);
-                report.outputs.push(grid_name.clone());
-                let mut handed = grid_name;
-                // Denoise.
-                if let (Some(dp), true) = (&params.denoise, params.until >= Stage::Denoise) {
-                    let t = Instant::now();
-                    let fp = Fingerprint::new(json!({ "denoise": dp })).input(&handed, hash);
-                    let name = Layout::denoised(v);
-                    let decision = o.records.decide(&name, &fp);
-                    match &decision {
-                        Decision::Reuse(rec) => {
-                            let dr: crate::denoise::DenoiseReport = recorded(&rec.report);
-                            vr.points = dr.points;
-                            vr.denoise = Some(section(&decision, 0.0, dr));
-                            (hash, grid) = (rec.hash, None);
-                        }
-                        Decision::Run(_) => {
-                            let input = match grid.take() {
-                                Some(g) => g,
-                                None => o.read_grid(&handed)?,
-                            };
-                            let (clean, dr) = stages::denoise(std::slice::from_ref(&input), 0, 0, dp)
-                                .map_err(|source| Error::View { view: v, stage: Stage::Denoise, source })?;
-                            let (clean, h) = o.put_grid(&name, &clean, fp, &dr)?;
-                            vr.points = clean.valid_count();
-                            vr.denoise = Some(section(&decision, t.elapsed().as_secs_f64(), dr));
-                            (hash, grid) = (h, Some(clean));
-                        }
-                    }
-                    vr.reused &= decision.reused();
-                    report.outputs.push(name.clone());
-                    handed = name;
-                }
-                let data = grid.map(Measured::Grid);
-                outputs.push(ViewOutput { view: v, angle_deg: view.angle_deg, laser: None, name: handed, hash, data });
-            }
-            Method::Laser => {
-                if let Some(index) = frames.iter().find_map(|f| match f.0 {
-                    Pattern::Laser { index } if index >= rig.lasers.len() => Some(index),
-                    _ => None,
-                }) {
-                    return Err(Error::UnknownLaser {
-                        view: v,
-                        index,
-                        lasers: rig.lasers.len(),
-                        rig: rig_path.clone(),
-                    });
-                }
-                // FabScanPi and other scanners record no laser-off frame: the background is then
-                // estimated from the laser frame itself.
-                let off = frames.iter().find(|f| f.0 == Pattern::LaserOff);
-                for (k, laser) in rig.lasers.iter().enumerate() {
-                    let Some(on) = frames.iter().find(|f| f.0 == Pattern::Laser { index: k }) else {
-                        missing_laser_frames.entry(k).or_default().push(v);
-                        continue;
-                    };
-                    let t = Instant::now();
-                    let pair: Vec<(Pattern, PathBuf)> = off.into_iter().chain([on]).cloned().collect();
-                    let fp = with_inputs(
-                        Fingerprint::new(json!({
-                            "laser": params.laser,
-                            "rig.camera": rig_part(&rig.camera),
-                            "rig.image": rig.image,
-                            "rig.laser": rig_part(laser),
-                            "rig.working_volume": rig_part(&rig.working_volume()),
-                        })),
-                        &frame_hashes(&pair, scan)?.into_iter().chain(texture_hashes.clone()).collect(),
-                    );
-                    let name = Layout::laser_grid(v, k);
-                    let decision = o.records.decide(&name, &fp);
-                    let (hash, line, lr) = match &decision {
-                        Decision::Reuse(rec) => (rec.hash, None, recorded::<LaserViewReport>(&rec.report)),
-                        Decision::Run(_) => {
-                            let imgs = load_colour_frames(&pair, &rig.image)?;
-                            let camera = (rig.camera.width, rig.camera.height);
-                            if let Some((_, img)) = imgs.iter().find(|(_, i)| (i.width, i.height) != camera) {
-                                let map = (img.width as usize, img.height as usize);
-                                let source = stages::StageError::MapSize { map, camera };
-                                return Err(Error::View { view: v, stage: Stage::Triangulate, source });
-                            }
-                            let frame = &imgs[imgs.len() - 1].1;
-                            let background = match off {
-                                Some(_) => Background::Frame(&imgs[0].1),
-                                None => Background::Estimated,
-                            };
-                            let windows = match windows.entry(k) {
-                                std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
-                                std::collections::btree_map::Entry::Vacant(e) => {
-                                    e.insert(laser_windows(&rig, laser, params, &mut report.warnings)?)
-                                }
-                            };
-                            let (peaks, line) = extract_line(
-                                frame,
-                                background,
-                                laser.colour,
-                                windows.as_ref(),
-                                &params.laser,
-                                |_, _| true,
-                            );
-                            let mut points = triangulate_line(&peaks, &rig.camera, &laser.plane);
-                            if let Some(t) = read_texture(&mut texture_image)? {
-                                points.colors =
-                                    Some(points.pixels.iter().map(|&px| stages::colour_at(&t, px)).collect());
-                            }
-                            let lr = LaserViewReport { laser: k, line, points: points.len() };
-                            let (points, hash) = o.put_sparse(&name, &points, fp, &lr)?;
-                            (hash, Some(points), lr)
-                        }
-                    };
-                    vr.reused &= decision.reused();
-                    vr.points += lr.points;
-                    vr.lasers.push(section(&decision, t.elapsed().as_secs_f64(), lr));
-                    report.outputs.push(name.clone());
-                    let data = line.map(Measured::Sparse);
-                    outputs.push(ViewOutput { view: v, angle_deg: view.angle_deg, laser: Some(k), name, hash, data });
-                }
-            }
-            Method::Board => unreachable!("refused above"),
+        for k in d.missing_lasers {
+            missing_laser_frames.entry(k).or_default().push(v);
         }
-        vr.seconds = t0.elapsed().as_secs_f64();
-        report.views.push(vr);
-        o.records.save()?;
-        progress(Stage::Triangulate.min(params.until), done + 1, complete.len());
+        report.warnings.extend(d.warnings);
+        report.outputs.extend(d.names);
+        report.views.push(d.report);
+        outputs.extend(d.outputs);
     }
     if !untextured.is_empty() && untextured.len() < complete.len() {
         report.warnings.push(format!(
@@ -604,12 +408,29 @@ pub fn process_scan(
         }
     }
 
+    // The phase's peak: every view section read the high-water mark and reset it, so the phase's is
+    // the largest of their readings and what is left since the last (the last reading alone was
+    // only the tail of the phase, and with two views in flight not even that view's).
+    let last = super::memory::take_peak_mb();
+    report.views_peak_mb = report
+        .views
+        .iter()
+        .flat_map(|v| {
+            let stages = [v.decode.as_ref().map(|s| s.peak_mb), v.triangulate.as_ref().map(|s| s.peak_mb)];
+            stages
+                .into_iter()
+                .chain([v.denoise.as_ref().map(|s| s.peak_mb)])
+                .flatten()
+                .flatten()
+                .chain(v.lasers.iter().filter_map(|s| s.peak_mb))
+        })
+        .chain(last)
+        .reduce(Real::max);
     super::memory::release_freed();
-    report.views_peak_mb = super::memory::take_peak_mb();
     let crop = CropParams { radius_mm: params.crop.radius_mm.or(rig.platter_radius_mm), ..params.crop };
     let result = scan_stages(&mut o, &mut report, &rig, manifest.method, outputs, &crop, params, &mut progress);
     // The report is written whatever happened, so what did finish is described.
-    o.records.save()?;
+    o.save()?;
     report.total_seconds = start.elapsed().as_secs_f64();
     report.outputs.push(layout::REPORT.into());
     if let Some(old) = old_report {
@@ -620,6 +441,364 @@ pub fn process_scan(
     rig::write_atomic(&o.path(layout::REPORT), &json)?;
     drop(lock);
     result.map(|()| report)
+}
+
+/// What one view's stages gave, to be added to the scan's report in view order.
+struct ViewDone {
+    report: ViewReport,
+    /// The stage the view got to, for progress.
+    stage: Stage,
+    outputs: Vec<ViewOutput>,
+    /// Output names, for the report's list.
+    names: Vec<String>,
+    warnings: Vec<String>,
+    /// The capture has no texture frame for the view.
+    untextured: bool,
+    /// Lasers whose frame the view lacks.
+    missing_lasers: Vec<usize>,
+}
+
+/// A laser's windows (`None`: the whole image) and what computing them warned of.
+type LaserWindows = (Option<RowWindows>, Vec<String>);
+
+/// What every view's stages share.
+struct ViewCx<'a> {
+    scan: &'a Path,
+    rig: &'a Rig,
+    rig_path: &'a PathBuf,
+    manifest: &'a Manifest,
+    params: &'a ProcessParams,
+    /// Built by the first view that triangulates.
+    triangulator: OnceLock<Triangulator>,
+    /// Each laser's working-volume windows, computed by the first view that needs them, with what
+    /// computing them warned of (said once, in laser order, whichever view it was).
+    windows: Mutex<BTreeMap<usize, LaserWindows>>,
+}
+
+impl ViewCx<'_> {
+    /// The triangulator, built outside any lock: building it runs rayon loops, and a thread waiting
+    /// in one may take up another view that would then wait on the lock its own stack holds.
+    fn triangulator(&self, projector: &rig::Projector) -> &Triangulator {
+        if let Some(t) = self.triangulator.get() {
+            return t;
+        }
+        let built = Triangulator::new(&self.rig.camera, projector);
+        self.triangulator.get_or_init(|| built)
+    }
+
+    /// Laser `k`'s windows, computed (again, for the same reason) outside the lock.
+    fn windows(&self, k: usize, laser: &rig::Laser) -> Result<Option<RowWindows>, Error> {
+        if let Some((w, _)) = self.windows.lock().unwrap_or_else(PoisonError::into_inner).get(&k) {
+            return Ok(w.clone());
+        }
+        let mut warnings = Vec::new();
+        let w = laser_windows(self.rig, laser, self.params, &mut warnings)?;
+        self.windows.lock().unwrap_or_else(PoisonError::into_inner).entry(k).or_insert((w.clone(), warnings));
+        Ok(w)
+    }
+}
+
+/// Runs the views' stages, several views at once (one per rayon thread, at most four): a view alone
+/// keeps about 1.3 of 2 cores busy (its frames are read and its files written one at a time), two
+/// keep both. Views start in order and
+/// none starts after one has failed, so the error returned is the lowest failing view's, as when
+/// they ran one by one; every view that finished has its record saved. The calling thread runs views
+/// too and reports progress between them (`progress` stays on it): it never only waits, so a caller
+/// on rayon's own pool — the Python bindings, a pool of one thread — cannot starve the helpers.
+fn run_views(o: &Out, cx: &ViewCx, views: &[usize], progress: &mut impl Progress) -> Result<Vec<ViewDone>, Error> {
+    let workers = rayon::current_num_threads().clamp(1, 4).min(views.len());
+    let next = AtomicUsize::new(0);
+    let failed = AtomicBool::new(false);
+    let results: Mutex<Vec<Option<Result<ViewDone, Error>>>> = Mutex::new((0..views.len()).map(|_| None).collect());
+    // Runs the next view not yet started; false when there is none (or one failed). A view taken is
+    // always run, and none is taken after a failure, so every view below the failing one ran.
+    let one = |tx: &std::sync::mpsc::Sender<Stage>| -> bool {
+        if failed.load(Ordering::SeqCst) {
+            return false;
+        }
+        let i = next.fetch_add(1, Ordering::SeqCst);
+        if i >= views.len() {
+            return false;
+        }
+        // A view that panics stops the others from starting too (the panic then reaches the caller).
+        let guard = FailOnUnwind(&failed);
+        let r = run_view(o, cx, views[i]);
+        std::mem::forget(guard);
+        match &r {
+            Ok(d) => {
+                let _ = tx.send(d.stage);
+            }
+            Err(_) => failed.store(true, Ordering::SeqCst),
+        }
+        results.lock().unwrap_or_else(PoisonError::into_inner)[i] = Some(r);
+        true
+    };
+    let (tx, rx) = std::sync::mpsc::channel::<Stage>();
+    let mut reported = 0;
+    let mut report = |rx: &std::sync::mpsc::Receiver<Stage>| {
+        for stage in rx.try_iter() {
+            reported += 1;
+            progress(stage, reported, views.len());
+        }
+    };
+    rayon::in_place_scope(|s| {
+        for _ in 1..workers {
+            let tx = tx.clone();
+            let one = &one;
+            s.spawn(move |_| while one(&tx) {});
+        }
+        while one(&tx) {
+            report(&rx);
+        }
+    });
+    drop(tx);
+    report(&rx);
+    let mut done = Vec::with_capacity(views.len());
+    for r in results.into_inner().unwrap_or_else(PoisonError::into_inner).into_iter().flatten() {
+        done.push(r?);
+    }
+    Ok(done)
+}
+
+/// Sets its flag if dropped while a panic unwinds (forgotten otherwise).
+struct FailOnUnwind<'a>(&'a AtomicBool);
+
+impl Drop for FailOnUnwind<'_> {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::SeqCst);
+    }
+}
+
+/// One view's stages: decoding and triangulation (structured light) or line extraction (laser),
+/// then denoising, each output reused where its record allows.
+fn run_view(o: &Out, cx: &ViewCx, v: usize) -> Result<ViewDone, Error> {
+    let t0 = Instant::now();
+    let ViewCx { scan, rig, rig_path, manifest, params, .. } = *cx;
+    let mut made = ViewDone {
+        report: ViewReport::default(),
+        stage: Stage::Decode,
+        outputs: Vec::new(),
+        names: Vec::new(),
+        warnings: Vec::new(),
+        untextured: false,
+        missing_lasers: Vec::new(),
+    };
+    let view = &manifest.views[v];
+    let frames: Vec<(Pattern, PathBuf)> = view
+        .frames
+        .iter()
+        .map(|f| Ok((f.pattern, Manifest::inside(scan, &f.file, &format!("views[{v}].frames"))?)))
+        .collect::<Result<_, Error>>()?;
+    let mut vr = ViewReport { view: v, angle_deg: view.angle_deg, reused: true, ..Default::default() };
+    // The view's colour frame, if the capture took one; read (in colour, turned) only when needed.
+    if !frames.iter().any(|f| f.0 == Pattern::Texture) {
+        made.untextured = true;
+    }
+    let texture: Vec<(Pattern, PathBuf)> = frames.iter().filter(|f| f.0 == Pattern::Texture).take(1).cloned().collect();
+    let texture_hashes = frame_hashes(&texture, scan)?;
+    let mut texture_image: Option<Image8> = None;
+    let read_texture = |cache: &mut Option<Image8>| -> Result<Option<Image8>, Error> {
+        if cache.is_none() && !texture.is_empty() {
+            *cache = load_colour_frames(&texture, &rig.image)?.pop().map(|t| t.1);
+        }
+        Ok(cache.clone())
+    };
+    match manifest.method {
+        Method::StructuredLight => {
+            let projector = rig.projector.as_ref().ok_or_else(|| Error::NoProjector { rig: rig_path.clone() })?;
+            let (pw, ph) = (projector.lens.width, projector.lens.height);
+            // Decode.
+            let t = Instant::now();
+            let fp = with_inputs(
+                Fingerprint::new(json!({"decode": params.decode, "projector_px": [pw, ph], "rig.image": rig.image})),
+                &frame_hashes(&frames, scan)?,
+            );
+            let name = Layout::decode(v);
+            let decision = o.decide(&name, &fp);
+            let (map_hash, mut map) =
+                match &decision {
+                    Decision::Reuse(rec) => {
+                        vr.decode = Some(section(&decision, 0.0, recorded(&rec.report)));
+                        (rec.hash, None)
+                    }
+                    Decision::Run(_) => {
+                        let imgs = load_frames(&frames, &rig.image)?;
+                        let refs: Vec<(Pattern, &Image8)> = imgs.iter().map(|(p, i)| (*p, i)).collect();
+                        let (map, dr) = stages::decode(&refs, (pw, ph), &params.decode)
+                            .map_err(|source| Error::View { view: v, stage: Stage::Decode, source })?;
+                        let hash = o.put(&name, &rig::npy::to_bytes(&map.to_npy()), fp, &dr)?;
+                        // Previews are for looking at: fast compression (deflating them was a sixth of a view's time).
+                        rig::image::write_png(&o.path(&Layout::projector_preview(v)), &map.preview(pw, ph), true)?;
+                        vr.decode = Some(section(&decision, t.elapsed().as_secs_f64(), dr));
+                        (hash, Some(map))
+                    }
+                };
+            vr.reused &= decision.reused();
+            made.names.push(name.clone());
+            if params.until < Stage::Triangulate {
+                // Stopping after decoding still reports the view and records its map.
+                vr.seconds = t0.elapsed().as_secs_f64();
+                o.save()?;
+                (made.report, made.stage) = (vr, Stage::Decode);
+                return Ok(made);
+            }
+            // Triangulate.
+            let t = Instant::now();
+            let fp = with_inputs(
+                Fingerprint::new(json!({
+                    "triangulate": params.triangulate,
+                    "normal_max_jump_mm": params.normal_max_jump_mm,
+                    "rig.camera": rig_part(&rig.camera),
+                    "rig.projector": rig_part(projector),
+                }))
+                .input(&name, map_hash),
+                &texture_hashes,
+            );
+            let grid_name = Layout::grid(v);
+            let decision = o.decide(&grid_name, &fp);
+            let (mut hash, mut grid) = match &decision {
+                Decision::Reuse(rec) => {
+                    vr.triangulate = Some(section(&decision, 0.0, recorded::<GridReport>(&rec.report)));
+                    (rec.hash, None)
+                }
+                Decision::Run(_) => {
+                    let map = match map.take() {
+                        Some(m) => m,
+                        None => read_map(&o.path(&name))?,
+                    };
+                    // Checked before the rig's ray tables are built: a rig of the wrong camera
+                    // (or an absurd size) must fail here, not allocate.
+                    let camera = (rig.camera.width, rig.camera.height);
+                    if (map.width, map.height) != (camera.0 as usize, camera.1 as usize) {
+                        let source = stages::StageError::MapSize { map: (map.width, map.height), camera };
+                        return Err(Error::View { view: v, stage: Stage::Triangulate, source });
+                    }
+                    let tri = cx.triangulator(projector);
+                    let (mut grid, gr) = stages::triangulate(&map, tri, &params.triangulate, params.normal_max_jump_mm)
+                        .map_err(|source| Error::View { view: v, stage: Stage::Triangulate, source })?;
+                    if let Some(t) = read_texture(&mut texture_image)? {
+                        grid.colors = stages::grid_colours(&grid, &t);
+                        if grid.colors.is_none() {
+                            made.warnings.push(format!(
+                                "view {v}: its texture frame is {}x{}, not the camera's {}x{}: the view has no colour",
+                                t.width, t.height, grid.width, grid.height
+                            ));
+                        }
+                    }
+                    let (grid, hash) = o.put_grid(&grid_name, &grid, fp, &gr)?;
+                    let depth = crate::preview::depth_image(&grid);
+                    rig::image::write_png(&o.path(&Layout::depth_preview(v)), &depth, true)?;
+                    vr.triangulate = Some(section(&decision, t.elapsed().as_secs_f64(), gr));
+                    (hash, Some(grid))
+                }
+            };
+            vr.reused &= decision.reused();
+            vr.points = vr.triangulate.as_ref().map_or(0, |s| s.report.points);
+            made.names.push(grid_name.clone());
+            let mut handed = grid_name;
+            // Denoise.
+            if let (Some(dp), true) = (&params.denoise, params.until >= Stage::Denoise) {
+                let t = Instant::now();
+                let fp = Fingerprint::new(json!({ "denoise": dp })).input(&handed, hash);
+                let name = Layout::denoised(v);
+                let decision = o.decide(&name, &fp);
+                match &decision {
+                    Decision::Reuse(rec) => {
+                        let dr: crate::denoise::DenoiseReport = recorded(&rec.report);
+                        vr.points = dr.points;
+                        vr.denoise = Some(section(&decision, 0.0, dr));
+                        (hash, grid) = (rec.hash, None);
+                    }
+                    Decision::Run(_) => {
+                        let input = match grid.take() {
+                            Some(g) => g,
+                            None => o.read_grid(&handed)?,
+                        };
+                        let (clean, dr) = stages::denoise(std::slice::from_ref(&input), 0, 0, dp)
+                            .map_err(|source| Error::View { view: v, stage: Stage::Denoise, source })?;
+                        let (clean, h) = o.put_grid(&name, &clean, fp, &dr)?;
+                        vr.points = clean.valid_count();
+                        vr.denoise = Some(section(&decision, t.elapsed().as_secs_f64(), dr));
+                        (hash, grid) = (h, Some(clean));
+                    }
+                }
+                vr.reused &= decision.reused();
+                made.names.push(name.clone());
+                handed = name;
+            }
+            let data = grid.map(Measured::Grid);
+            made.outputs.push(ViewOutput { view: v, angle_deg: view.angle_deg, laser: None, name: handed, hash, data });
+        }
+        Method::Laser => {
+            if let Some(index) = frames.iter().find_map(|f| match f.0 {
+                Pattern::Laser { index } if index >= rig.lasers.len() => Some(index),
+                _ => None,
+            }) {
+                return Err(Error::UnknownLaser { view: v, index, lasers: rig.lasers.len(), rig: rig_path.clone() });
+            }
+            // FabScanPi and other scanners record no laser-off frame: the background is then
+            // estimated from the laser frame itself.
+            let off = frames.iter().find(|f| f.0 == Pattern::LaserOff);
+            for (k, laser) in rig.lasers.iter().enumerate() {
+                let Some(on) = frames.iter().find(|f| f.0 == Pattern::Laser { index: k }) else {
+                    made.missing_lasers.push(k);
+                    continue;
+                };
+                let t = Instant::now();
+                let pair: Vec<(Pattern, PathBuf)> = off.into_iter().chain([on]).cloned().collect();
+                let fp = with_inputs(
+                    Fingerprint::new(json!({
+                        "laser": params.laser,
+                        "rig.camera": rig_part(&rig.camera),
+                        "rig.image": rig.image,
+                        "rig.laser": rig_part(laser),
+                        "rig.working_volume": rig_part(&rig.working_volume()),
+                    })),
+                    &frame_hashes(&pair, scan)?.into_iter().chain(texture_hashes.clone()).collect(),
+                );
+                let name = Layout::laser_grid(v, k);
+                let decision = o.decide(&name, &fp);
+                let (hash, line, lr) = match &decision {
+                    Decision::Reuse(rec) => (rec.hash, None, recorded::<LaserViewReport>(&rec.report)),
+                    Decision::Run(_) => {
+                        let imgs = load_colour_frames(&pair, &rig.image)?;
+                        let camera = (rig.camera.width, rig.camera.height);
+                        if let Some((_, img)) = imgs.iter().find(|(_, i)| (i.width, i.height) != camera) {
+                            let map = (img.width as usize, img.height as usize);
+                            let source = stages::StageError::MapSize { map, camera };
+                            return Err(Error::View { view: v, stage: Stage::Triangulate, source });
+                        }
+                        let frame = &imgs[imgs.len() - 1].1;
+                        let background = match off {
+                            Some(_) => Background::Frame(&imgs[0].1),
+                            None => Background::Estimated,
+                        };
+                        let windows = cx.windows(k, laser)?;
+                        let (peaks, line) =
+                            extract_line(frame, background, laser.colour, windows.as_ref(), &params.laser, |_, _| true);
+                        let mut points = triangulate_line(&peaks, &rig.camera, &laser.plane);
+                        if let Some(t) = read_texture(&mut texture_image)? {
+                            points.colors = Some(points.pixels.iter().map(|&px| stages::colour_at(&t, px)).collect());
+                        }
+                        let lr = LaserViewReport { laser: k, line, points: points.len() };
+                        let (points, hash) = o.put_sparse(&name, &points, fp, &lr)?;
+                        (hash, Some(points), lr)
+                    }
+                };
+                vr.reused &= decision.reused();
+                vr.points += lr.points;
+                vr.lasers.push(section(&decision, t.elapsed().as_secs_f64(), lr));
+                made.names.push(name.clone());
+                let data = line.map(Measured::Sparse);
+                made.outputs.push(ViewOutput { view: v, angle_deg: view.angle_deg, laser: Some(k), name, hash, data });
+            }
+        }
+        Method::Board => unreachable!("refused above"),
+    }
+    vr.seconds = t0.elapsed().as_secs_f64();
+    o.save()?;
+    (made.report, made.stage) = (vr, Stage::Triangulate.min(params.until));
+    Ok(made)
 }
 
 fn read_map(path: &Path) -> Result<ProjectorMap, Error> {
@@ -679,7 +858,7 @@ fn scan_stages(
     // Merge.
     let t = Instant::now();
     let fp = grid_inputs(Fingerprint::new(json!({"crop": crop, "rig.turntable": rig_part(&rig.turntable)})), &outputs);
-    let decision = o.records.decide(layout::MERGED, &fp);
+    let decision = o.decide(layout::MERGED, &fp);
     let (mut cloud_name, mut cloud_hash, mut cloud) = match &decision {
         Decision::Reuse(rec) => {
             report.merge = Some(stage_section(&decision, 0.0, recorded(&rec.report)));
@@ -694,7 +873,7 @@ fn scan_stages(
         }
     };
     report.outputs.push(layout::MERGED.into());
-    o.records.save()?;
+    o.save()?;
     progress(Stage::Merge, 1, 1);
 
     // Register.
@@ -715,8 +894,8 @@ fn scan_stages(
                     })),
                     &outputs,
                 );
-                let decision = match o.records.decide(layout::REGISTERED, &fp) {
-                    Decision::Reuse(rec) => match o.records.decide(layout::POSES, &fp) {
+                let decision = match o.decide(layout::REGISTERED, &fp) {
+                    Decision::Reuse(rec) => match o.decide(layout::POSES, &fp) {
                         Decision::Reuse(_) => Decision::Reuse(rec),
                         run => run,
                     },
@@ -748,7 +927,7 @@ fn scan_stages(
                 cloud_name = layout::REGISTERED;
                 report.outputs.push(layout::REGISTERED.into());
                 report.outputs.push(layout::POSES.into());
-                o.records.save()?;
+                o.save()?;
                 progress(Stage::Register, 1, 1);
             }
             (Method::StructuredLight, Some(_)) => report.skipped.push("register: needs at least two views".into()),
@@ -768,7 +947,7 @@ fn scan_stages(
     // Fuse.
     let t = Instant::now();
     let fp = Fingerprint::new(json!({ "fuse": params.fuse })).input(cloud_name, cloud_hash);
-    let decision = o.records.decide(layout::FUSED, &fp);
+    let decision = o.decide(layout::FUSED, &fp);
     let (fused_hash, mut fused) = match &decision {
         Decision::Reuse(rec) => {
             report.fuse = Some(stage_section(&decision, 0.0, recorded(&rec.report)));
@@ -787,7 +966,7 @@ fn scan_stages(
         }
     };
     report.outputs.push(layout::FUSED.into());
-    o.records.save()?;
+    o.save()?;
     progress(Stage::Fuse, 1, 1);
     if params.until < Stage::Reconstruct {
         return Ok(());
@@ -798,7 +977,7 @@ fn scan_stages(
         (Some(cp), true) => {
             let t = Instant::now();
             let fp = Fingerprint::new(json!({ "close": cp })).input(layout::FUSED, fused_hash);
-            let decision = o.records.decide(layout::CLOSED, &fp);
+            let decision = o.decide(layout::CLOSED, &fp);
             let made = match &decision {
                 Decision::Reuse(rec) => {
                     report.close = Some(stage_section(&decision, 0.0, recorded(&rec.report)));
@@ -816,7 +995,7 @@ fn scan_stages(
                 }
             };
             report.outputs.push(layout::CLOSED.into());
-            o.records.save()?;
+            o.save()?;
             made
         }
         (Some(_), false) => {
@@ -833,7 +1012,7 @@ fn scan_stages(
     let fp =
         Fingerprint::new(json!({ "reconstruct": params.reconstruct, "finish": params.finish, "platter_z": platter_z }))
             .input(input_name, input_hash);
-    let decision = o.records.decide(layout::MESH, &fp);
+    let decision = o.decide(layout::MESH, &fp);
     // The mesh as written (normals, colours), for its copies in other formats.
     let mut written_mesh: Option<rig::PolyMesh> = None;
     let (mesh_hash, mut mesh) = match &decision {
@@ -912,7 +1091,7 @@ fn scan_stages(
     o.export(layout::MESH_STL, (layout::MESH, mesh_hash), held.as_ref(), rig::stl::mesh_to_binary)?;
     o.export(layout::MESH_GLB, (layout::MESH, mesh_hash), held.as_ref(), rig::glb::mesh_to_bytes)?;
     report.outputs.extend([layout::MESH_STL.into(), layout::MESH_GLB.into()]);
-    o.records.save()?;
+    o.save()?;
     progress(Stage::Reconstruct, 1, 1);
     if params.until < Stage::Remesh {
         return Ok(());
@@ -921,7 +1100,7 @@ fn scan_stages(
     // Remesh.
     let t = Instant::now();
     let fp = Fingerprint::new(json!({ "remesh": params.remesh })).input(layout::MESH, mesh_hash);
-    let decision = o.records.decide(layout::QUADS, &fp);
+    let decision = o.decide(layout::QUADS, &fp);
     let (quads_hash, quads) = match &decision {
         Decision::Reuse(rec) => {
             report.remesh = Some(stage_section(&decision, 0.0, recorded(&rec.report)));

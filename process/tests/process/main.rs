@@ -13,3 +13,4 @@ mod remesh_fields;
 mod remesh_quads;
 mod surface;
 mod turned_frames;
+mod views_at_once;
