@@ -39,6 +39,7 @@
 
 pub use decode::{gray_code, phase_shift, projector_map, structured_light};
 
+pub mod cell_grid;
 pub mod triangulate;
 pub use triangulate::{grid_normals, laser_line};
 
