@@ -44,7 +44,9 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
     }
     let start = std::time::Instant::now();
     let context = || format!("reconstructing {}", args.input.display());
-    let (mesh, report) = stages::reconstruct(&cloud, &params).with_context(context)?;
+    // One k-d tree for the area weights, the support check and the colours, as `process` does.
+    let tree = process::kd_tree::PointTree::new(&cloud.positions);
+    let (mesh, report) = stages::reconstruct_in(&cloud, &params, Some(&tree)).with_context(context)?;
     let (mesh, finished) =
         stages::finish(mesh, &cloud, &finish, in_frame.then_some(0.0), report.cell()).with_context(context)?;
     if let Some(b) = finished.base {
@@ -63,11 +65,11 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
             t.removed, t.max_distance, t.holes
         );
     }
-    if let Some(w) = stages::check_support(&mesh, &cloud, args.force).with_context(context)? {
+    if let Some(w) = stages::check_support(&mesh, &cloud, &tree, args.force).with_context(context)? {
         eprintln!("warning: {w}");
     }
     let seconds = start.elapsed().as_secs_f64();
-    rig::write_mesh(&args.out, &stages::mesh_for_output(&mesh, stages::mesh_colours(&mesh, &cloud)), &opts)?;
+    rig::write_mesh(&args.out, &stages::mesh_for_output(&mesh, stages::mesh_colours(&mesh, &cloud, &tree)), &opts)?;
     let t = topology(&mesh);
     let peak = rig::memory::peak_resident_bytes();
     let mut o = std::io::stdout().lock();

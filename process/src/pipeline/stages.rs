@@ -7,13 +7,14 @@
 use crate::denoise::{DenoiseError, DenoiseParams, DenoiseReport};
 use crate::grid_normals::estimate_normals;
 use crate::icp::IcpError;
+use crate::kd_tree::PointTree;
 use crate::lasers::{LaserAlignParams, LasersReport};
 use crate::mean_shift::{MeanShiftParams, MeanShiftReport};
 use crate::multiview::MultiViewReport;
 use crate::placement::{CropParams, place_sparse, place_view};
 use crate::reconstruct::adfft::{AdFftParams, AdFftReport, reconstruct_adfft};
 pub use crate::reconstruct::base::{Base, BaseReport};
-use crate::reconstruct::global_fft::{FftParams, FftReport, ReconstructError, reconstruct_fft};
+use crate::reconstruct::global_fft::{FftParams, FftReport, ReconstructError, reconstruct_fft_in};
 pub use crate::reconstruct::trim::TrimReport;
 use crate::register_scan::{Refused, RegisterParams, Tolerance, ViewPose, register_grids};
 use crate::remesh::{RemeshError, RemeshParams, RemeshReport};
@@ -636,11 +637,22 @@ pub fn reconstruct<'a>(
     cloud: impl Into<rig::CloudRef<'a>>,
     params: &ReconstructParams,
 ) -> Result<(TriMesh, ReconstructReport), StageError> {
+    reconstruct_in(cloud, params, None)
+}
+
+/// [`reconstruct`] with a k-d tree over the cloud's positions the caller already has (`None`: built
+/// where needed): the pipeline builds one and asks it for the area weights, the mesh's support
+/// ([`check_support`]) and its colours ([`mesh_colours`]).
+pub fn reconstruct_in<'a>(
+    cloud: impl Into<rig::CloudRef<'a>>,
+    params: &ReconstructParams,
+    tree: Option<&PointTree>,
+) -> Result<(TriMesh, ReconstructReport), StageError> {
     let cloud = cloud.into();
     check_finite(cloud)?;
     let (mesh, report) = match params {
         ReconstructParams::Fft(p) => {
-            let (m, r) = reconstruct_fft(cloud, p)?;
+            let (m, r) = reconstruct_fft_in(cloud, p, tree)?;
             (m, ReconstructReport::Fft(r))
         }
         ReconstructParams::Adfft(p) => {
@@ -745,10 +757,14 @@ pub const MAX_MEDIAN_GAP: Real = 0.02;
 /// The plausibility check of a reconstruction: the median distance from the mesh's vertices
 /// (sampled, up to 20,000) to the nearest point of `cloud`. Beyond [`MAX_MEDIAN_GAP`] of the
 /// diagonal: an error unless `force`, else the warning to give.
-pub fn check_support(mesh: &TriMesh, cloud: &PointCloud, force: bool) -> Result<Option<String>, StageError> {
+pub fn check_support(
+    mesh: &TriMesh,
+    cloud: &PointCloud,
+    tree: &PointTree,
+    force: bool,
+) -> Result<Option<String>, StageError> {
     let Some(bounds) = cloud.bounding_box() else { return Ok(None) };
     let diagonal = (bounds.max - bounds.min).norm();
-    let tree = crate::kd_tree::PointTree::new(&cloud.positions);
     let step = mesh.vertices.len().div_ceil(20_000).max(1);
     let mut gaps: Vec<Real> = mesh.vertices.iter().step_by(step).map(|v| tree.nearest(v).1.sqrt()).collect();
     if gaps.is_empty() {
@@ -820,10 +836,9 @@ pub fn mesh_for_output(mesh: &TriMesh, colours: Option<Vec<[u8; 3]>>) -> PolyMes
 /// Each mesh vertex's colour from the cloud it was made from: the inverse-distance mean of its four
 /// nearest coloured samples (a vertex lies between samples, and one sample's noise should not be its
 /// colour). `None` when the cloud has no colour.
-pub fn mesh_colours(mesh: &TriMesh, cloud: &PointCloud) -> Option<Vec<[u8; 3]>> {
+pub fn mesh_colours(mesh: &TriMesh, cloud: &PointCloud, tree: &PointTree) -> Option<Vec<[u8; 3]>> {
     use rayon::prelude::*;
     let colors = cloud.colors.as_ref().filter(|c| !c.is_empty())?;
-    let tree = crate::kd_tree::PointTree::new(&cloud.positions);
     Some(
         mesh.vertices
             .par_iter()

@@ -94,10 +94,17 @@ pub fn close_openings(cloud: &PointCloud, params: &CloseParams) -> (PointCloud, 
     if c.is_nan() || c <= 0.0 || cloud.len() < 16 {
         return (out, report);
     }
-    let tree = PointTree::new(&cloud.positions);
+    // The tree (built on one core) and the heights' sort side by side.
+    let (tree, z) = rayon::join(
+        || PointTree::new(&cloud.positions),
+        || {
+            use rayon::prelude::*;
+            let mut z: Vec<Real> = cloud.positions.par_iter().map(|p| p.z).collect();
+            z.par_sort_unstable_by(|a, b| a.total_cmp(b));
+            z
+        },
+    );
     let slab = params.slab_cells * c;
-    let mut z: Vec<Real> = cloud.positions.iter().map(|p| p.z).collect();
-    z.sort_by(|a, b| a.total_cmp(b));
     // The extreme levels, robust to a few strays fusion left.
     let at = |q: Real| z[((z.len() - 1) as Real * q).round() as usize];
     let (z_low, z_high) = (at(0.0005), at(0.9995));

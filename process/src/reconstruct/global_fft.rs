@@ -148,7 +148,15 @@ pub fn area_weights(points: &[Point3], k: usize) -> Vec<Real> {
     if k == 0 || points.len() <= k {
         return vec![1.0; points.len()];
     }
-    let tree = PointTree::new(points);
+    area_weights_in(points, k, &PointTree::new(points))
+}
+
+/// [`area_weights`] through a k-d tree over `points` the caller already has (the pipeline asks the
+/// same tree for the mesh's support and colours).
+pub fn area_weights_in(points: &[Point3], k: usize, tree: &PointTree) -> Vec<Real> {
+    if k == 0 || points.len() <= k {
+        return vec![1.0; points.len()];
+    }
     let mut w: Vec<Real> = points
         .par_iter()
         .map(|p| {
@@ -388,6 +396,16 @@ pub fn reconstruct_fft<'a>(
     cloud: impl Into<rig::CloudRef<'a>>,
     params: &FftParams,
 ) -> Result<(TriMesh, FftReport), ReconstructError> {
+    reconstruct_fft_in(cloud, params, None)
+}
+
+/// [`reconstruct_fft`] with a k-d tree over the cloud's positions the caller already has, for the
+/// area weights (`None`: one is built).
+pub fn reconstruct_fft_in<'a>(
+    cloud: impl Into<rig::CloudRef<'a>>,
+    params: &FftParams,
+    tree: Option<&PointTree>,
+) -> Result<(TriMesh, FftReport), ReconstructError> {
     let cloud = cloud.into();
     if cloud.is_empty() {
         return Err(ReconstructError::Empty);
@@ -403,7 +421,10 @@ pub fn reconstruct_fft<'a>(
     let cell = size / n as Real;
     let mut report = FftReport { n, cell, grid_bytes: need, ..Default::default() };
     let t = Instant::now();
-    let weights = area_weights(cloud.positions, params.area_k);
+    let weights = match tree {
+        Some(tree) => area_weights_in(cloud.positions, params.area_k, tree),
+        None => area_weights(cloud.positions, params.area_k),
+    };
     report.seconds_splat += t.elapsed().as_secs_f64();
     let cube = Cube { origin, size, n };
     let chi = indicator(cloud.positions, normals, &weights, &cube, params.smoothing_cells, &mut report);
