@@ -69,110 +69,198 @@ pub fn field_with_rows(
     lines: &[Vec<(usize, Real)>],
     weight: Real,
 ) -> Result<Vec<Real>, FieldError> {
-    let n = mesh.vertices.len();
-    if fixed.is_empty() {
-        return Err(FieldError::NoConstraints);
-    }
-    if let Some(&(v, _)) = fixed.iter().find(|(v, _)| *v >= n) {
-        return Err(FieldError::BadVertex(v, n));
-    }
-    if let Some(&(v, _)) = lines.iter().flatten().find(|(v, _)| *v >= n) {
-        return Err(FieldError::BadVertex(v, n));
-    }
-    if let Some(c) = conductivity {
-        if c.len() != mesh.faces.len() {
-            return Err(FieldError::Conductivity(format!("{} values for {} faces", c.len(), mesh.faces.len())));
+    let system = LaplaceSystem::new(mesh, conductivity, fixed)?;
+    if lines.is_empty() { system.solve() } else { system.solve_with_rows(lines, weight, None) }
+}
+
+/// The Laplace equations of a mesh with prescribed values (eqs. 6.2, 6.4), over its free vertices:
+/// assembled once, solved alone ([`LaplaceSystem::solve`]) or with extra rows in least squares
+/// ([`LaplaceSystem::solve_with_rows`]). The remesher solves both on the same system, the second
+/// prepared while the first is solved ([`LaplaceSystem::normal_plan`]).
+pub struct LaplaceSystem {
+    /// The matrix over the free vertices (symmetric); `None` when every vertex is prescribed.
+    matrix: Option<SparseColMat<usize, Real>>,
+    rhs: Vec<Real>,
+    /// Each vertex's unknown, `usize::MAX` when prescribed.
+    unknown: Vec<usize>,
+    /// Prescribed values (0 elsewhere).
+    value: Vec<Real>,
+}
+
+/// The part of the normal equations' solve that does not depend on the extra rows: `A·A` and the
+/// symbolic Cholesky factorisation of its pattern (the fill-reducing ordering is most of it). The
+/// rows' `CᵀC` couples vertices of one face, which `A·A` already couples, so the normal matrix
+/// `A·A + CᵀC` has `A·A`'s pattern and the symbolic factorisation holds for it.
+pub struct NormalPlan {
+    aa: SparseColMat<usize, Real>,
+    symbolic: faer::sparse::linalg::solvers::SymbolicLlt<usize>,
+}
+
+impl LaplaceSystem {
+    /// Checks the input and assembles the equations (see [`harmonic_field`]).
+    pub fn new(mesh: &TriMesh, conductivity: Option<&[Real]>, fixed: &[(usize, Real)]) -> Result<Self, FieldError> {
+        let n = mesh.vertices.len();
+        if fixed.is_empty() {
+            return Err(FieldError::NoConstraints);
         }
-        if let Some((f, x)) = c.iter().enumerate().find(|(_, x)| !(x.is_finite() && **x >= 0.0)) {
-            return Err(FieldError::Conductivity(format!("face {f} has {x}")));
+        if let Some(&(v, _)) = fixed.iter().find(|(v, _)| *v >= n) {
+            return Err(FieldError::BadVertex(v, n));
         }
-    }
-    let c_max = conductivity.map_or(1.0, |c| c.iter().copied().fold(0.0, Real::max)).max(Real::MIN_POSITIVE);
-    let mut value = vec![0.0; n];
-    let mut is_fixed = vec![false; n];
-    for &(v, x) in fixed {
-        value[v] = x;
-        is_fixed[v] = true;
-    }
-    // Vertices on no face with an area are not part of the surface (left over by pruning, or only on
-    // slivers): no equation involves them, so they are held at 0 rather than left singular.
-    let mut on_surface = vec![false; n];
-    for face in &mesh.faces {
-        let p = face.map(|i| mesh.vertices[i as usize]);
-        if (p[1] - p[0]).cross(&(p[2] - p[0])).norm() > 0.0 {
-            face.iter().for_each(|&v| on_surface[v as usize] = true);
+        if let Some(c) = conductivity {
+            if c.len() != mesh.faces.len() {
+                return Err(FieldError::Conductivity(format!("{} values for {} faces", c.len(), mesh.faces.len())));
+            }
+            if let Some((f, x)) = c.iter().enumerate().find(|(_, x)| !(x.is_finite() && **x >= 0.0)) {
+                return Err(FieldError::Conductivity(format!("face {f} has {x}")));
+            }
         }
-    }
-    for v in 0..n {
-        if !on_surface[v] {
+        let c_max = conductivity.map_or(1.0, |c| c.iter().copied().fold(0.0, Real::max)).max(Real::MIN_POSITIVE);
+        let mut value = vec![0.0; n];
+        let mut is_fixed = vec![false; n];
+        for &(v, x) in fixed {
+            value[v] = x;
             is_fixed[v] = true;
         }
-    }
-    // Unknowns: the free vertices, numbered in order.
-    let mut unknown = vec![usize::MAX; n];
-    let mut free = 0;
-    for v in 0..n {
-        if !is_fixed[v] {
-            unknown[v] = free;
-            free += 1;
-        }
-    }
-    if free == 0 {
-        return Ok(value);
-    }
-    let mut triplets = Vec::with_capacity(mesh.faces.len() * 9);
-    let mut rhs = vec![0.0; free];
-    for (f, face) in mesh.faces.iter().enumerate() {
-        let c = conductivity.map_or(1.0, |c| c[f]).max(INSULATOR * c_max);
-        let p = face.map(|i| mesh.vertices[i as usize]);
-        for k in 0..3 {
-            // The edge (a, b) opposite corner k: weight c·cot(angle at k)/2.
-            let (a, b) = (face[(k + 1) % 3] as usize, face[(k + 2) % 3] as usize);
-            let (ea, eb) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
-            let cross = ea.cross(&eb).norm();
-            if cross <= 0.0 {
-                continue; // a degenerate face carries no flux
+        // Vertices on no face with an area are not part of the surface (left over by pruning, or only
+        // on slivers): no equation involves them, so they are held at 0 rather than left singular.
+        let mut on_surface = vec![false; n];
+        for face in &mesh.faces {
+            let p = face.map(|i| mesh.vertices[i as usize]);
+            if (p[1] - p[0]).cross(&(p[2] - p[0])).norm() > 0.0 {
+                face.iter().for_each(|&v| on_surface[v as usize] = true);
             }
-            let w = c * ea.dot(&eb) / cross / 2.0;
-            for (i, j) in [(a, b), (b, a)] {
-                if is_fixed[i] {
-                    continue;
+        }
+        for v in 0..n {
+            if !on_surface[v] {
+                is_fixed[v] = true;
+            }
+        }
+        // Unknowns: the free vertices, numbered in order.
+        let mut unknown = vec![usize::MAX; n];
+        let mut free = 0;
+        for v in 0..n {
+            if !is_fixed[v] {
+                unknown[v] = free;
+                free += 1;
+            }
+        }
+        if free == 0 {
+            return Ok(LaplaceSystem { matrix: None, rhs: Vec::new(), unknown, value });
+        }
+        let mut triplets = Vec::with_capacity(mesh.faces.len() * 9);
+        let mut rhs = vec![0.0; free];
+        for (f, face) in mesh.faces.iter().enumerate() {
+            let c = conductivity.map_or(1.0, |c| c[f]).max(INSULATOR * c_max);
+            let p = face.map(|i| mesh.vertices[i as usize]);
+            for k in 0..3 {
+                // The edge (a, b) opposite corner k: weight c·cot(angle at k)/2.
+                let (a, b) = (face[(k + 1) % 3] as usize, face[(k + 2) % 3] as usize);
+                let (ea, eb) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
+                let cross = ea.cross(&eb).norm();
+                if cross <= 0.0 {
+                    continue; // a degenerate face carries no flux
                 }
-                let row = unknown[i];
-                triplets.push(Triplet::new(row, row, w));
-                if is_fixed[j] {
-                    rhs[row] += w * value[j];
-                } else {
-                    triplets.push(Triplet::new(row, unknown[j], -w));
+                let w = c * ea.dot(&eb) / cross / 2.0;
+                for (i, j) in [(a, b), (b, a)] {
+                    if is_fixed[i] {
+                        continue;
+                    }
+                    let row = unknown[i];
+                    triplets.push(Triplet::new(row, row, w));
+                    if is_fixed[j] {
+                        rhs[row] += w * value[j];
+                    } else {
+                        triplets.push(Triplet::new(row, unknown[j], -w));
+                    }
                 }
             }
         }
+        let matrix = SparseColMat::<usize, Real>::try_new_from_triplets(free, free, &triplets)
+            .map_err(|e| FieldError::Singular(format!("{e:?}")))?;
+        Ok(LaplaceSystem { matrix: Some(matrix), rhs, unknown, value })
     }
-    let mut matrix = SparseColMat::<usize, Real>::try_new_from_triplets(free, free, &triplets)
-        .map_err(|e| FieldError::Singular(format!("{e:?}")))?;
-    if !lines.is_empty() {
-        (matrix, rhs) = normal_equations(&matrix, &rhs, lines, weight, &unknown, &value)?;
-    }
-    let mut b = Mat::<Real>::from_fn(free, 1, |i, _| rhs[i]);
-    match matrix.sp_cholesky(Side::Lower) {
-        Ok(llt) => llt.solve_in_place(b.as_mut()),
-        // The system is symmetric positive definite in exact arithmetic, but the cotangent weights of
-        // near-degenerate triangles (slivers marching cubes leaves) reach 1e10 and rounding can leave
-        // a pivot ≤ 0: LU with pivoting solves what is still regular.
-        Err(chol) => {
-            let lu = matrix.sp_lu().map_err(|e| FieldError::Singular(format!("{chol:?}; LU: {e:?}")))?;
-            lu.solve_in_place(b.as_mut());
+
+    /// The field with the Laplace equations alone.
+    pub fn solve(&self) -> Result<Vec<Real>, FieldError> {
+        match &self.matrix {
+            None => Ok(self.value.clone()),
+            Some(m) => self.solved(m, &self.rhs, None),
         }
     }
-    for v in 0..n {
-        if !is_fixed[v] {
-            value[v] = b[(unknown[v], 0)];
-            if !value[v].is_finite() {
-                return Err(FieldError::Singular(format!("vertex {v} got {}", value[v])));
+
+    /// Prepares [`LaplaceSystem::solve_with_rows`] (see [`NormalPlan`]); `None` when every vertex
+    /// is prescribed.
+    pub fn normal_plan(&self) -> Result<Option<NormalPlan>, FieldError> {
+        let Some(a) = &self.matrix else { return Ok(None) };
+        let singular = |e: &dyn std::fmt::Debug| FieldError::Singular(format!("{e:?}"));
+        let par = faer::get_global_parallelism();
+        let aa = faer::sparse::linalg::matmul::sparse_sparse_matmul(a.as_ref(), a.as_ref(), 1.0, par)
+            .map_err(|e| singular(&e))?;
+        let symbolic = faer::sparse::linalg::solvers::SymbolicLlt::try_new(aa.symbolic(), Side::Lower)
+            .map_err(|e| singular(&e))?;
+        Ok(Some(NormalPlan { aa, symbolic }))
+    }
+
+    /// The field with each row `Σ c_v u_v = 0` of `lines`, scaled by `weight`, added to the Laplace
+    /// equations in least squares (see [`field_with_rows`]); `plan` from
+    /// [`LaplaceSystem::normal_plan`] on this system, or `None` to make it here.
+    pub fn solve_with_rows(
+        &self,
+        lines: &[Vec<(usize, Real)>],
+        weight: Real,
+        plan: Option<NormalPlan>,
+    ) -> Result<Vec<Real>, FieldError> {
+        let n = self.unknown.len();
+        if let Some(&(v, _)) = lines.iter().flatten().find(|(v, _)| *v >= n) {
+            return Err(FieldError::BadVertex(v, n));
+        }
+        let plan = match plan {
+            Some(p) => Some(p),
+            None => self.normal_plan()?,
+        };
+        let (Some(a), Some(plan)) = (&self.matrix, plan) else { return Ok(self.value.clone()) };
+        let (matrix, rhs) = normal_equations(a, &plan.aa, &self.rhs, lines, weight, &self.unknown, &self.value)?;
+        // The plan's symbolic factorisation holds when the sum kept A·A's pattern (always, for rows
+        // within faces); otherwise it is made anew.
+        let same = matrix.symbolic().col_ptr() == plan.aa.symbolic().col_ptr()
+            && matrix.symbolic().row_idx() == plan.aa.symbolic().row_idx();
+        self.solved(&matrix, &rhs, same.then_some(plan.symbolic))
+    }
+
+    /// Solves `m x = rhs` by sparse Cholesky (with `symbolic` when given), LU where rounding leaves a
+    /// pivot ≤ 0, and spreads `x` over the free vertices.
+    fn solved(
+        &self,
+        m: &SparseColMat<usize, Real>,
+        rhs: &[Real],
+        symbolic: Option<faer::sparse::linalg::solvers::SymbolicLlt<usize>>,
+    ) -> Result<Vec<Real>, FieldError> {
+        let mut b = Mat::<Real>::from_fn(rhs.len(), 1, |i, _| rhs[i]);
+        let llt = match symbolic {
+            Some(s) => faer::sparse::linalg::solvers::Llt::try_new_with_symbolic(s, m.as_ref(), Side::Lower),
+            None => m.sp_cholesky(Side::Lower),
+        };
+        match llt {
+            Ok(llt) => llt.solve_in_place(b.as_mut()),
+            // The system is symmetric positive definite in exact arithmetic, but the cotangent weights
+            // of near-degenerate triangles (slivers marching cubes leaves) reach 1e10 and rounding can
+            // leave a pivot ≤ 0: LU with pivoting solves what is still regular.
+            Err(chol) => {
+                let lu = m.sp_lu().map_err(|e| FieldError::Singular(format!("{chol:?}; LU: {e:?}")))?;
+                lu.solve_in_place(b.as_mut());
             }
         }
+        let mut value = self.value.clone();
+        for (v, &u) in self.unknown.iter().enumerate() {
+            if u != usize::MAX {
+                value[v] = b[(u, 0)];
+                if !value[v].is_finite() {
+                    return Err(FieldError::Singular(format!("vertex {v} got {}", value[v])));
+                }
+            }
+        }
+        Ok(value)
     }
-    Ok(value)
 }
 
 /// The normal equations `AᵀA x = Aᵀb` of the stacked system: the Laplace rows (`a`, symmetric, and
@@ -182,6 +270,7 @@ pub fn field_with_rows(
 /// mesh, and sorting them was a third of the remesher's field time).
 fn normal_equations(
     a: &SparseColMat<usize, Real>,
+    aa: &SparseColMat<usize, Real>,
     rhs: &[Real],
     lines: &[Vec<(usize, Real)>],
     weight: Real,
@@ -206,8 +295,6 @@ fn normal_equations(
     }
     let ct = SparseColMat::<usize, Real>::try_new_from_triplets(free, lines.len(), &ct).map_err(|e| singular(&e))?;
     let par = faer::get_global_parallelism();
-    let aa = faer::sparse::linalg::matmul::sparse_sparse_matmul(a.as_ref(), a.as_ref(), 1.0, par)
-        .map_err(|e| singular(&e))?;
     let cc = faer::sparse::linalg::matmul::sparse_sparse_matmul(
         ct.as_ref(),
         ct.transpose().to_col_major().map_err(|e| singular(&e))?.as_ref(),
@@ -225,7 +312,7 @@ fn normal_equations(
             }
         }
     }
-    Ok((add_sorted(&aa, &cc), rhs_n))
+    Ok((add_sorted(aa, &cc), rhs_n))
 }
 
 /// `p + q` for two matrices of the same shape whose columns hold sorted row indices.

@@ -10,7 +10,7 @@
 use super::edge_faces::EdgeFaces;
 use super::features::{chain, feature_edges};
 use super::half_split::split_doubly_constrained;
-use super::harmonic::{FieldError, face_gradients, field_with_rows, harmonic_field};
+use super::harmonic::{FieldError, LaplaceSystem, face_gradients};
 use super::polygon_split::{SplitStats, split_polygons};
 use super::quad_graph::{GraphStats, quads_from_lines};
 use super::quality::{Quality, measure};
@@ -212,7 +212,11 @@ pub fn streamlines(
     // Poles, then the unconstrained field to decide each line's family, then the constrained one.
     let on_lines: Vec<usize> = paths.iter().flatten().copied().collect();
     let fixed = poles(&work, &on_lines, 3.0 * spacing);
-    let free = harmonic_field(&work, conductivity.as_deref(), &fixed)?;
+    let system = LaplaceSystem::new(&work, conductivity.as_deref(), &fixed)?;
+    // The constrained solve's ordering and symbolic factorisation depend only on the mesh (see
+    // `NormalPlan`), so they run beside the free solve, whose result picks the constraints.
+    let (free, plan) = rayon::join(|| system.solve(), || (!paths.is_empty()).then(|| system.normal_plan()));
+    let free = free?;
     let free_grad = face_gradients(&work, &free);
     let faces_of_edge = EdgeFaces::new(&work);
     let mut families = Vec::with_capacity(paths.len());
@@ -242,7 +246,7 @@ pub fn streamlines(
     let u = if rows.is_empty() {
         free
     } else {
-        field_with_rows(&work, conductivity.as_deref(), &fixed, &rows, params.weight)?
+        system.solve_with_rows(&rows, params.weight, plan.transpose()?.flatten())?
     };
     let grad = face_gradients(&work, &u);
     report.seconds.field = t0.elapsed().as_secs_f64();
