@@ -37,8 +37,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     }
     progress.finish();
     crate::progress::note(format!("2/2 processing into {}", processed.display()));
-    let report = crate::process_cmd::run_pipeline(&scan, &processed, &process::ProcessParams::default())?;
-    let page = crate::pages::scan_report_after_run(&scan, &processed);
+    let (report, page) = crate::process_cmd::run_pipeline(&scan, &processed, &process::ProcessParams::default())?;
     let points: usize = report.views.iter().map(|v| v.points).sum();
     let mut text = String::new();
     writeln!(

@@ -8,8 +8,17 @@ use std::path::{Path, PathBuf};
 
 /// Writes `processed/report.html` for `scan`, saying where on stderr (stdout may carry JSON).
 pub fn write_scan_report(scan: &Path, processed: &Path) -> Result<web::scan_report::ScanPage> {
+    write_scan_report_prepared(scan, processed, None)
+}
+
+/// [`write_scan_report`] with its 3D scene made beforehand (see [`web::scan_report::PreparedScene`]).
+fn write_scan_report_prepared(
+    scan: &Path,
+    processed: &Path,
+    prepared: Option<web::scan_report::PreparedScene>,
+) -> Result<web::scan_report::ScanPage> {
     let t = std::time::Instant::now();
-    let page = web::scan_report::write(scan, processed)
+    let page = web::scan_report::write_prepared(scan, processed, prepared)
         .with_context(|| format!("writing the report page of {}", processed.display()))?;
     crate::progress::note(format!(
         "report page {} ({:.1} MB, {:.1} s): open it in a browser",
@@ -22,8 +31,12 @@ pub fn write_scan_report(scan: &Path, processed: &Path) -> Result<web::scan_repo
 
 /// [`write_scan_report`] after a pipeline run: its outputs are written whatever happens to the page,
 /// so a page that cannot be made is a warning, not a failed run.
-pub fn scan_report_after_run(scan: &Path, processed: &Path) -> Option<web::scan_report::ScanPage> {
-    match write_scan_report(scan, processed) {
+pub fn scan_report_after_run(
+    scan: &Path,
+    processed: &Path,
+    prepared: Option<web::scan_report::PreparedScene>,
+) -> Option<web::scan_report::ScanPage> {
+    match write_scan_report_prepared(scan, processed, prepared) {
         Ok(page) => Some(page),
         Err(e) => {
             eprintln!("warning: the report page was not written ({e:#}); `scanrig report` retries it");

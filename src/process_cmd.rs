@@ -27,19 +27,35 @@ pub fn params(args: &ProcessArgs) -> Result<ProcessParams> {
     })
 }
 
-/// Runs the pipeline with progress on stderr, and names each stage that ran again and why.
-pub fn run_pipeline(scan: &Path, out: &Path, params: &ProcessParams) -> Result<ProcessReport> {
+/// Runs the pipeline with progress on stderr, names each stage that ran again and why, and writes
+/// the report page (a page that cannot be made is a warning: `None`). The page's 3D scene is made
+/// on a thread of its own once the mesh is written, while the remesher runs: the remesher keeps
+/// about one core of two busy, and the scene (the cloud, the mesh, their error against the truth)
+/// is most of the page's cost.
+pub fn run_pipeline(
+    scan: &Path,
+    out: &Path,
+    params: &ProcessParams,
+) -> Result<(ProcessReport, Option<web::scan_report::ScanPage>)> {
     let mut progress = Progress::new();
+    let mut scene: Option<std::thread::JoinHandle<_>> = None;
     let report = process::process_scan(scan, out, params, |stage: Stage, done, total| {
         let phase = if stage <= Stage::Denoise { "views" } else { stage.name() };
         progress.update(phase, done, total);
+        if stage == Stage::Reconstruct && done == total && params.until > Stage::Reconstruct && scene.is_none() {
+            let (scan, out) = (scan.to_path_buf(), out.to_path_buf());
+            scene = Some(std::thread::spawn(move || web::scan_report::prepare_scene(&scan, &out)));
+        }
     })
     .with_context(|| format!("processing {}", scan.display()))?;
     progress.finish();
     for w in &report.warnings {
         eprintln!("warning: {w}");
     }
-    Ok(report)
+    // A scene that could not be made is made again with the page, which then says why.
+    let prepared = scene.and_then(|s| s.join().ok()).and_then(|r| r.ok());
+    let page = crate::pages::scan_report_after_run(scan, out, prepared);
+    Ok((report, page))
 }
 
 /// "reused" or "ran: why".
@@ -52,8 +68,7 @@ fn status<T>(s: &Section<T>) -> String {
 
 pub fn run(args: &ProcessArgs) -> Result<()> {
     let out = args.out.clone().unwrap_or_else(|| args.scan.join("processed"));
-    let report = run_pipeline(&args.scan, &out, &params(args)?)?;
-    let page = crate::pages::scan_report_after_run(&args.scan, &out);
+    let (report, page) = run_pipeline(&args.scan, &out, &params(args)?)?;
     let mut o = std::io::stdout().lock();
     if args.json {
         serde_json::to_writer_pretty(&mut o, &report)?;

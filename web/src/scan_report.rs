@@ -38,14 +38,45 @@ pub struct ScanPage {
 /// Builds `processed/report.html` for `scan` from what `processed` holds (its `report.json` and
 /// outputs), and writes it atomically.
 pub fn write(scan: &Path, processed: &Path) -> Result<ScanPage, PageError> {
-    let html = build(scan, processed)?;
+    write_prepared(scan, processed, None)
+}
+
+/// [`write`] with the 3D scene made beforehand by [`prepare_scene`] (`None`: made here).
+pub fn write_prepared(scan: &Path, processed: &Path, prepared: Option<PreparedScene>) -> Result<ScanPage, PageError> {
+    let html = build_prepared(scan, processed, prepared)?;
     let path = processed.join(REPORT_HTML);
     rig::write_atomic(&path, html.0.as_bytes())?;
     Ok(ScanPage { path, bytes: html.0.len(), truth_rms_percent: html.1 })
 }
 
+/// The page's heaviest part, made from the processed folder's cloud and mesh (and the scan's truth)
+/// alone: the 3D scene, the object's extent and the accuracy section. `process` makes it while the
+/// remesher runs — the cloud and the mesh are final once the mesh is written — and the page is then
+/// put together from it and `report.json` once the run ends.
+pub struct PreparedScene {
+    scene: Scene,
+    extent: Option<Extent>,
+    accuracy: Option<(String, Real)>,
+}
+
+/// Makes the [`PreparedScene`] of `processed` (see there).
+pub fn prepare_scene(scan: &Path, processed: &Path) -> Result<PreparedScene, PageError> {
+    let truth_path = scan.join("truth/object.ply");
+    let (scene, extent, accuracy) =
+        scene(&Layout::new(processed), truth_path.is_file().then_some(truth_path.as_path()))?;
+    Ok(PreparedScene { scene, extent, accuracy })
+}
+
 /// The page's HTML and the truth RMS (% of the diagonal) where there is a truth.
 pub fn build(scan: &Path, processed: &Path) -> Result<(String, Option<Real>), PageError> {
+    build_prepared(scan, processed, None)
+}
+
+fn build_prepared(
+    scan: &Path,
+    processed: &Path,
+    prepared: Option<PreparedScene>,
+) -> Result<(String, Option<Real>), PageError> {
     let report_path = processed.join(layout::REPORT);
     if !report_path.is_file() {
         return Err(PageError::Missing(format!(
@@ -74,8 +105,10 @@ pub fn build(scan: &Path, processed: &Path) -> Result<(String, Option<Real>), Pa
     );
     let manifest = rig::Manifest::read(scan).ok();
     page.section("summary", "Summary", summary(&report, rig.as_ref(), manifest.as_ref()));
-    let truth_path = scan.join("truth/object.ply");
-    let (scene, extent, accuracy) = scene(&lay, truth_path.is_file().then_some(truth_path.as_path()))?;
+    let PreparedScene { scene, extent, accuracy } = match prepared {
+        Some(p) => p,
+        None => prepare_scene(scan, processed)?,
+    };
     page.section("views", "Views", views(&report, rig.as_ref(), extent, &lay)?);
     if scene.layer_count() > 0 {
         page.viewer_section("view3d", "3D view", scene);
