@@ -41,7 +41,7 @@ pub fn write(scan: &Path, processed: &Path) -> Result<ScanPage, PageError> {
     write_prepared(scan, processed, None)
 }
 
-/// [`write`] with the 3D scene made beforehand by [`prepare_scene`] (`None`: made here).
+/// [`write()`] with the 3D scene made beforehand by [`prepare_scene`] (`None`: made here).
 pub fn write_prepared(scan: &Path, processed: &Path, prepared: Option<PreparedScene>) -> Result<ScanPage, PageError> {
     let html = build_prepared(scan, processed, prepared)?;
     let path = processed.join(REPORT_HTML);
