@@ -104,6 +104,20 @@ impl<'a> CellGrid<'a> {
         }
         let lo = self.coords(&Point3::new(p.x - r, p.y - r, p.z - r));
         let hi = self.coords(&Point3::new(p.x + r, p.y + r, p.z + r));
+        let block: i64 = (0..3).map(|k| hi[k] - lo[k] + 1).product();
+        if block > self.cells.len() as i64 {
+            // A ball wider than the occupied cells are many (a far point's): the occupied cells
+            // inside the block, not every cell of it.
+            let own_key = self.key(own);
+            for (&key, &(s, e)) in &self.cells {
+                let c = [key & 0x1f_ffff, (key >> 21) & 0x1f_ffff, key >> 42].map(|x| x as i64);
+                let inside = (0..3).all(|k| (lo[k]..=hi[k]).contains(&c[k]));
+                if key != own_key && inside && !visit(&self.order[s as usize..e as usize]) {
+                    return;
+                }
+            }
+            return;
+        }
         for z in lo[2]..=hi[2] {
             for y in lo[1]..=hi[1] {
                 for x in lo[0]..=hi[0] {
@@ -160,20 +174,33 @@ impl<'a> CellGrid<'a> {
     }
 }
 
-/// The distance from `p` to its `k`-th nearest other point of the grid (`p` one of them): the
-/// ball grows from `guess` until it holds `k + 1` points. `None` when fewer than `k + 1` points exist.
-pub fn kth_distance(grid: &CellGrid, p: &Point3, k: usize, guess: Real, scratch: &mut Vec<Real>) -> Option<Real> {
+/// The distance from `p` to its `k`-th nearest other point of the grid (`p` one of them), or `limit`
+/// when that is farther: the ball grows from `guess` until it holds `k + 1` points or reaches `limit`
+/// (a median of such distances needs no more than "farther than the limit" of a far point, and a
+/// ball grown across the whole cloud would cost as much as the cloud). `None` when fewer than `k + 1`
+/// points exist.
+pub fn kth_distance(
+    grid: &CellGrid,
+    p: &Point3,
+    k: usize,
+    guess: Real,
+    limit: Real,
+    scratch: &mut Vec<Real>,
+) -> Option<Real> {
     if grid.points.len() <= k {
         return None;
     }
-    let mut r = guess.max(grid.cell * 1e-6);
+    let mut r = guess.max(grid.cell * 1e-6).min(limit);
     loop {
         grid.squared_distances_within(p, r, scratch);
         if scratch.len() > k {
             let (_, kth, _) = scratch.select_nth_unstable_by(k, Real::total_cmp);
             return Some(kth.sqrt());
         }
-        r *= 2.0;
+        if r >= limit {
+            return Some(limit);
+        }
+        r = (r * 2.0).min(limit);
     }
 }
 
@@ -224,10 +251,27 @@ mod tests {
                 }
                 let nb = tree.nearest_k(p, 9);
                 let want = (pts[nb[8]] - p).norm();
-                let got = kth_distance(&grid, p, 8, r, &mut scratch).unwrap();
+                let got = kth_distance(&grid, p, 8, r, Real::INFINITY, &mut scratch).unwrap();
                 prop_assert!((got - want).abs() <= 1e-12 * want.max(1.0), "point {}: {} vs {}", i, got, want);
+                let capped = kth_distance(&grid, p, 8, r, 0.5 * want, &mut scratch).unwrap();
+                prop_assert_eq!(capped, 0.5 * want, "point {}: the limit stands for anything farther", i);
             }
         }
+    }
+
+    #[test]
+    fn a_far_point_is_answered_without_visiting_the_empty_cells_between() {
+        // A sheet of fine cells and one point a million cells away: its ball's block would be 10^18
+        // cells; the occupied ones are a few thousand.
+        let mut pts: Vec<Point3> = (0..4000).map(|i| Point3::new((i % 80) as Real, (i / 80) as Real, 0.0)).collect();
+        pts.push(Point3::new(0.0, 0.0, 1.0e6));
+        let grid = CellGrid::new(&pts, 1.0).unwrap();
+        let far = pts[4000];
+        let mut scratch = Vec::new();
+        let d = kth_distance(&grid, &far, 8, 1.0, Real::INFINITY, &mut scratch).unwrap();
+        assert!((d - 1.0e6).abs() < 1.0, "{d}");
+        assert!(!grid.at_least_within(&far, 2.0e6, 4002));
+        assert!(grid.at_least_within(&far, 2.0e6, 4001));
     }
 
     #[test]

@@ -125,7 +125,10 @@ fn isolated_test(positions: &[Point3], params: &MeanShiftParams, median_h: Real)
     let mut kth: Vec<Real> = positions
         .par_iter()
         .step_by(stride)
-        .map_init(Vec::new, |scratch, p| kth_distance(&grid, p, k, 0.25 * median_h, scratch).unwrap_or(0.0))
+        // Distances past 16 kernel sizes are capped there: only their rank (above the median) counts.
+        .map_init(Vec::new, |scratch, p| {
+            kth_distance(&grid, p, k, 0.25 * median_h, 16.0 * median_h, scratch).unwrap_or(0.0)
+        })
         .collect();
     let half = kth.len() / 2;
     let median = *kth.select_nth_unstable_by(half, Real::total_cmp).1;
