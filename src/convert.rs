@@ -6,7 +6,7 @@ use rig::ply::{Encoding, Precision, WriteOptions};
 use rig::{MeshFormat, PolyMesh};
 
 pub fn run(args: &ConvertArgs) -> Result<()> {
-    crate::outputs::distinct(&[("OUTPUT", Some(&args.output))])?;
+    crate::outputs::plan(&[("INPUT", &args.input)], &[("OUTPUT", Some(&args.output))])?;
     let mut opts = WriteOptions {
         encoding: if args.ascii { Encoding::Ascii } else { Encoding::BinaryLittleEndian },
         precision: if args.double { Precision::F64 } else { Precision::F32 },
@@ -14,6 +14,8 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
     };
     // A file with faces converts as a mesh; a bare vertex list as a cloud, keeping all its attributes.
     let mut grid_note = None;
+    // What the reader could not keep, each naming the file: printed, never dropped in silence.
+    let mut warnings: Vec<String> = Vec::new();
     let mesh: Option<PolyMesh> = match MeshFormat::of(&args.input) {
         Some(MeshFormat::Ply) => {
             let ply = rig::ply::read(&args.input)?;
@@ -50,7 +52,13 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             let has_faces = ply.element("face").is_some() || ply.element("tristrips").is_some();
             if has_faces { Some(rig::ply::mesh_from_ply(&ply).map_err(|e| e.with_path(&args.input))?) } else { None }
         }
-        _ => Some(rig::read_mesh(&args.input)?).filter(|m| m.face_count() > 0),
+        // An E57 file holds clouds only.
+        Some(MeshFormat::E57) => None,
+        _ => {
+            let read = rig::read_mesh_reported(&args.input)?;
+            warnings = read.warnings;
+            Some(read.value).filter(|m| m.face_count() > 0)
+        }
     };
     // Single precision holds up to about 3.4e38: a larger coordinate would be written as infinity,
     // which no reader (scanrig's included) takes back.
@@ -74,12 +82,18 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             _ => Ok(()),
         }
     };
+    let warn = |warnings: &[String]| {
+        for w in warnings {
+            eprintln!("warning: {w}");
+        }
+    };
     match mesh {
         Some(m) => {
+            warn(&warnings);
             check(too_large(&mut m.vertices.iter()))?;
             rig::write_mesh(&args.output, &m, &opts)?;
             if args.json {
-                let json = serde_json::json!({"output": args.output, "kind": "mesh", "vertices": m.vertices.len(), "faces": m.face_count()});
+                let json = serde_json::json!({"output": args.output, "kind": "mesh", "vertices": m.vertices.len(), "faces": m.face_count(), "warnings": warnings});
                 println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
             } else {
                 println!("{}: {} vertices, {} faces", args.output.display(), m.vertices.len(), m.face_count());
@@ -89,11 +103,14 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             if let Some(note) = &grid_note {
                 eprintln!("{note}");
             }
-            let cloud = rig::read_cloud(&args.input)?;
+            let read = rig::read_cloud_reported(&args.input)?;
+            warnings = read.warnings;
+            let cloud = read.value;
+            warn(&warnings);
             check(too_large(&mut cloud.positions.iter()))?;
             rig::write_cloud(&args.output, &cloud, &opts).with_context(|| "writing the point cloud")?;
             if args.json {
-                let json = serde_json::json!({"output": args.output, "kind": "cloud", "points": cloud.len()});
+                let json = serde_json::json!({"output": args.output, "kind": "cloud", "points": cloud.len(), "warnings": warnings});
                 println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
             } else {
                 println!("{}: {} points", args.output.display(), cloud.len());

@@ -44,6 +44,29 @@ impl Distortion {
         self.to_opencv().iter().all(|&c| c == 0.0)
     }
 
+    /// Checks the coefficients are finite and within [`crate::limits`]' bounds: |k1|, |k2|, |k3| ≤
+    /// [`MAX_RADIAL_DISTORTION`](crate::limits::MAX_RADIAL_DISTORTION), |p1|, |p2| ≤
+    /// [`MAX_TANGENTIAL_DISTORTION`](crate::limits::MAX_TANGENTIAL_DISTORTION). The message names the term.
+    pub fn validate(&self) -> Result<(), String> {
+        use crate::limits::{MAX_RADIAL_DISTORTION, MAX_TANGENTIAL_DISTORTION};
+        let terms = [
+            ("k1", self.k1, MAX_RADIAL_DISTORTION),
+            ("k2", self.k2, MAX_RADIAL_DISTORTION),
+            ("p1", self.p1, MAX_TANGENTIAL_DISTORTION),
+            ("p2", self.p2, MAX_TANGENTIAL_DISTORTION),
+            ("k3", self.k3, MAX_RADIAL_DISTORTION),
+        ];
+        for (name, v, max) in terms {
+            if !v.is_finite() {
+                return Err(format!("distortion {name} = {v} must be finite"));
+            }
+            if v.abs() > max {
+                return Err(format!("distortion {name} = {v:e} is beyond any real lens (|{name}| ≤ {max:e})"));
+            }
+        }
+        Ok(())
+    }
+
     /// Distorts normalised coordinates: (x, y) ↦ (x_d, y_d).
     pub fn apply(&self, p: Point2) -> Point2 {
         let (x, y) = (p.x, p.y);
@@ -185,7 +208,10 @@ impl PinholeCamera {
         px.x >= -0.5 && px.y >= -0.5 && px.x < self.width as Real - 0.5 && px.y < self.height as Real - 0.5
     }
 
-    /// Checks the parameters make a camera: positive size and focal lengths, finite values.
+    /// Checks the parameters make a camera or a projector lens: positive size and focal lengths, finite
+    /// values, distortion within real lenses' range and the principal point within an image size of the
+    /// image (a projector's lens may be shifted) — the bounds of [`crate::limits`]. A camera's principal
+    /// point must lie inside its image: [`PinholeCamera::validate_camera`].
     pub fn validate(&self) -> Result<(), String> {
         if self.width == 0 || self.height == 0 {
             return Err(format!("image size {}×{} must be positive", self.width, self.height));
@@ -200,9 +226,36 @@ impl PinholeCamera {
         if !(self.fx > 0.0 && self.fy > 0.0 && self.fx.is_finite() && self.fy.is_finite()) {
             return Err(format!("focal lengths ({}, {}) must be positive and finite", self.fx, self.fy));
         }
-        let all = [self.cx, self.cy].into_iter().chain(self.distortion.to_opencv());
-        if all.into_iter().any(|v| !v.is_finite()) {
-            return Err("principal point and distortion must be finite".into());
+        if !(self.cx.is_finite() && self.cy.is_finite()) {
+            return Err(format!("principal point ({}, {}) must be finite", self.cx, self.cy));
+        }
+        self.distortion.validate()?;
+        // A projector's lens is often shifted: its principal point may lie beyond its image, within a margin.
+        let m = crate::limits::PROJECTOR_PRINCIPAL_POINT_MARGIN;
+        let (w, h) = (self.width as Real, self.height as Real);
+        if !(-m * w - 0.5..=w * (1.0 + m) - 0.5).contains(&self.cx)
+            || !(-m * h - 0.5..=h * (1.0 + m) - 0.5).contains(&self.cy)
+        {
+            return Err(format!(
+                "principal point ({}, {}) lies more than {m} image size(s) outside the {}×{} image",
+                self.cx, self.cy, self.width, self.height
+            ));
+        }
+        // (Not checked: that the lens model is invertible out to the image's corners. Real five-term fits
+        // often fold over there: the FabScanPi sample's k3 = −1.15 does beyond r² ≈ 0.5.)
+        Ok(())
+    }
+
+    /// [`PinholeCamera::validate`], and the principal point inside the image (a camera's lens is centred
+    /// on its sensor; a projector's may be shifted, see [`crate::limits`]).
+    pub fn validate_camera(&self) -> Result<(), String> {
+        self.validate()?;
+        let inside = |c: Real, n: u32| (-0.5..=n as Real - 0.5).contains(&c);
+        if !inside(self.cx, self.width) || !inside(self.cy, self.height) {
+            return Err(format!(
+                "principal point ({}, {}) lies outside the {}×{} image",
+                self.cx, self.cy, self.width, self.height
+            ));
         }
         Ok(())
     }

@@ -49,20 +49,68 @@ pub fn write_cloud(path: &Path, cloud: &PointCloud) -> Result<(), Error> {
     write_atomic(path, &bytes)
 }
 
+/// How far from unit length a pose quaternion may be and still be taken as a rotation (normalised):
+/// files written in single precision, or rounded to six decimals, are within 10⁻⁶; a quaternion further
+/// off (2, 0, 0, 0) would scale the cloud by its squared length, and is refused.
+pub const QUATERNION_TOLERANCE: f64 = 1e-3;
+
+/// A point cloud's pose made a rigid motion: its quaternion normalised where it is within
+/// [`QUATERNION_TOLERANCE`] of unit length, refused (naming the pose) where it is not, or not finite.
+fn checked_pose(pc: &e57::PointCloud, k: usize) -> Result<e57::PointCloud, ParseError> {
+    let mut pc = pc.clone();
+    if let Some(t) = pc.transform.as_mut() {
+        let at = Location::Field(format!("data3D[{k}].pose"));
+        let q = &mut t.rotation;
+        let tr = &t.translation;
+        let shown = format!("({}, {}, {}, {})", q.w, q.x, q.y, q.z);
+        if ![q.w, q.x, q.y, q.z, tr.x, tr.y, tr.z].iter().all(|v| v.is_finite()) {
+            return Err(ParseError::new(at, Problem::NonFinite(format!("the pose (rotation {shown})"))));
+        }
+        let norm = (q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z).sqrt();
+        if (norm - 1.0).abs() > QUATERNION_TOLERANCE {
+            let msg = format!(
+                "the pose's rotation quaternion (w, x, y, z) = {shown} has length {norm}, not 1: it is not a \
+                 rotation (it would scale the cloud by {:.3})",
+                norm * norm
+            );
+            return Err(ParseError::new(at, Problem::Invalid(msg)));
+        }
+        (q.w, q.x, q.y, q.z) = (q.w / norm, q.x / norm, q.y / norm, q.z / norm);
+    }
+    Ok(pc)
+}
+
 /// Parses E57 bytes into one cloud (millimetres), with colours where every point cloud has them.
 pub fn parse(bytes: &[u8]) -> Result<PointCloud, ParseError> {
+    parse_reported(bytes).map(|(cloud, _)| cloud)
+}
+
+/// [`parse`], with what it left out named, one sentence each: points without valid coordinates (a
+/// scanner's "no return"), colours that only some point clouds have. A pose whose quaternion is not a
+/// rotation is refused (see [`QUATERNION_TOLERANCE`]).
+pub fn parse_reported(bytes: &[u8]) -> Result<(PointCloud, Vec<String>), ParseError> {
     let invalid = |what: &str, e: e57::Error| ParseError::new(Location::File, Problem::Invalid(format!("{what}: {e}")));
     let mut reader = E57Reader::new(Cursor::new(bytes)).map_err(|e| invalid("not a readable E57 file", e))?;
     let clouds = reader.pointclouds();
     let all_coloured = !clouds.is_empty() && clouds.iter().all(|c| c.has_color());
+    let mut warnings = Vec::new();
+    let coloured = clouds.iter().filter(|c| c.has_color()).count();
+    if coloured > 0 && !all_coloured {
+        warnings.push(format!("its colours are not kept: {coloured} of {} point clouds have them", clouds.len()));
+    }
     let mut out = PointCloud::default();
     let mut colors = Vec::new();
+    let mut no_return = 0usize;
     for (k, pc) in clouds.iter().enumerate() {
-        let mut points = reader.pointcloud_simple(pc).map_err(|e| invalid(&format!("point cloud {k}"), e))?;
+        let pc = checked_pose(pc, k)?;
+        let mut points = reader.pointcloud_simple(&pc).map_err(|e| invalid(&format!("point cloud {k}"), e))?;
         points.apply_pose(true);
         for p in points {
             let p = p.map_err(|e| invalid(&format!("point cloud {k}"), e))?;
-            let CartesianCoordinate::Valid { x, y, z } = p.cartesian else { continue };
+            let CartesianCoordinate::Valid { x, y, z } = p.cartesian else {
+                no_return += 1;
+                continue;
+            };
             let q = Point3::new(x * 1000.0, y * 1000.0, z * 1000.0);
             if !q.coords.iter().all(|c| c.is_finite()) {
                 let at = Location::Field(format!("data3D[{k}]"));
@@ -78,12 +126,20 @@ pub fn parse(bytes: &[u8]) -> Result<PointCloud, ParseError> {
     if all_coloured {
         out.colors = Some(colors);
     }
-    Ok(out)
+    if no_return > 0 {
+        warnings.push(format!("{no_return} points without valid coordinates (no return) are left out"));
+    }
+    Ok((out, warnings))
 }
 
 /// Reads an E57 file (see [`parse`]).
 pub fn read(path: &Path) -> Result<PointCloud, Error> {
     parse(&read_bytes(path)?).map_err(|e| e.with_path(path))
+}
+
+/// Reads an E57 file with what was left out named (see [`parse_reported`]).
+pub fn read_reported(path: &Path) -> Result<(PointCloud, Vec<String>), Error> {
+    parse_reported(&read_bytes(path)?).map_err(|e| e.with_path(path))
 }
 
 #[cfg(test)]
@@ -103,6 +159,40 @@ mod tests {
         }
         let bare = parse(&cloud_to_bytes(&PointCloud::from_positions(vec![Point3::origin()])).unwrap()).unwrap();
         assert_eq!((bare.len(), bare.colors), (1, None));
+    }
+
+    fn posed(rotation: e57::Quaternion) -> Vec<u8> {
+        let mut out = Cursor::new(Vec::new());
+        {
+            let mut w = E57Writer::new(&mut out, "posed-file").unwrap();
+            let proto = vec![Record::CARTESIAN_X_F64, Record::CARTESIAN_Y_F64, Record::CARTESIAN_Z_F64];
+            let mut pc = w.add_pointcloud("posed-cloud", proto).unwrap();
+            pc.set_transform(Some(e57::Transform {
+                rotation,
+                translation: e57::Translation { x: 0.0, y: 0.0, z: 0.0 },
+            }));
+            pc.add_point(vec![RecordValue::Double(0.1), RecordValue::Double(0.0), RecordValue::Double(0.0)]).unwrap();
+            pc.finalize().unwrap();
+            w.finalize().unwrap();
+        }
+        out.into_inner()
+    }
+
+    /// A pose quaternion (2, 0, 0, 0) scaled the cloud ×4 (issue 37): a near-unit one is normalised, one
+    /// far from unit or zero is refused naming the pose.
+    #[test]
+    fn pose_quaternions_are_normalised_or_refused() {
+        let q = |w, x, y, z| e57::Quaternion { w, x, y, z };
+        for bad in [q(2.0, 0.0, 0.0, 0.0), q(0.0, 0.0, 0.0, 0.0), q(0.5, 0.0, 0.0, 0.0)] {
+            let e = parse(&posed(bad.clone())).unwrap_err().to_string();
+            assert!(e.contains("data3D[0].pose") && e.contains("not a rotation"), "{bad:?}: {e}");
+        }
+        let near = parse(&posed(q(1.0 + 1e-5, 0.0, 0.0, 0.0))).unwrap();
+        assert!((near.positions[0] - Point3::new(100.0, 0.0, 0.0)).norm() < 1e-9, "{}", near.positions[0]);
+        // A quarter turn about z, written as an unnormalised (w, z) = (0.7071, 0.7071) at four decimals.
+        let h = (0.5f64.sqrt() * 1e4).round() / 1e4;
+        let turned = parse(&posed(q(h, 0.0, 0.0, h))).unwrap();
+        assert!((turned.positions[0] - Point3::new(0.0, 100.0, 0.0)).norm() < 1e-9, "{}", turned.positions[0]);
     }
 
     #[test]

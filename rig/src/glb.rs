@@ -177,8 +177,16 @@ pub fn write_cloud(path: &Path, cloud: &PointCloud) -> Result<(), Error> {
 }
 
 /// Everything a GLB holds, merged: each node's primitives put where the scene puts them, back in
-/// scanrig's frame. Triangle primitives give faces; point primitives add vertices only.
+/// scanrig's frame. Triangle primitives give faces; point primitives add vertices only. What cannot be
+/// kept is dropped as [`parse_reported`] says.
 pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
+    parse_reported(bytes).map(|(mesh, _)| mesh)
+}
+
+/// [`parse`], with what it could not keep named, one sentence each: normals or colours that only some
+/// vertices have (some primitives without them, a zero normal) are dropped with a warning. A primitive
+/// whose NORMAL or COLOR_0 has fewer (or more) entries than its POSITION is refused.
+pub fn parse_reported(bytes: &[u8]) -> Result<(PolyMesh, Vec<String>), ParseError> {
     let invalid = |m: String| ParseError::new(Location::File, Problem::Invalid(m));
     let (json, blob) = split_glb(bytes).map_err(invalid)?;
     check_accessors(json, blob.map_or(0, |b| b.len() as u64)).map_err(invalid)?;
@@ -237,6 +245,18 @@ pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
             }
             let count = out.vertices.len() - first as usize;
             let mut ns: Vec<Option<Vector3>> = vec![None; count];
+            let attribute_count =
+                |want: gltf::Semantic| prim.attributes().find(|(s, _)| *s == want).map(|(_, a)| a.count());
+            for (name, semantic) in [("NORMAL", gltf::Semantic::Normals), ("COLOR_0", gltf::Semantic::Colors(0))] {
+                if let Some(n) = attribute_count(semantic)
+                    && n != count
+                {
+                    return Err(invalid(format!(
+                        "mesh {} has a primitive whose {name} holds {n} entries for its {count} positions",
+                        mesh.index()
+                    )));
+                }
+            }
             if let Some(read) = reader.read_normals() {
                 for (slot, n) in ns.iter_mut().zip(read) {
                     let v = back * (normal_matrix * Vector3::new(n[0] as f64, n[1] as f64, n[2] as f64));
@@ -279,13 +299,27 @@ pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
             }
         }
     }
-    if normals.iter().all(|n| n.is_some()) && !normals.is_empty() {
+    let mut warnings = Vec::new();
+    let (with_normal, with_colour) =
+        (normals.iter().filter(|n| n.is_some()).count(), colors.iter().filter(|c| c.is_some()).count());
+    if with_normal == normals.len() && !normals.is_empty() {
         out.normals = Some(normals.into_iter().flatten().collect());
+    } else if with_normal > 0 {
+        warnings.push(format!(
+            "its normals are not kept: {with_normal} of {} vertices have a usable one (some primitives have none, \
+             or some normals are zero)",
+            normals.len()
+        ));
     }
-    if colors.iter().all(|c| c.is_some()) && !colors.is_empty() {
+    if with_colour == colors.len() && !colors.is_empty() {
         out.colors = Some(colors.into_iter().flatten().collect());
+    } else if with_colour > 0 {
+        warnings.push(format!(
+            "its colours are not kept: {with_colour} of {} vertices have one (some primitives have none)",
+            colors.len()
+        ));
     }
-    Ok(out)
+    Ok((out, warnings))
 }
 
 /// A GLB container's JSON chunk and binary chunk (if any). Split here rather than by `gltf` 1.4, whose
@@ -405,6 +439,11 @@ fn check_accessors(json: &[u8], blob: u64) -> Result<(), String> {
 /// Reads a GLB file (see [`parse`]).
 pub fn read(path: &Path) -> Result<PolyMesh, Error> {
     parse(&read_bytes(path)?).map_err(|e| e.with_path(path))
+}
+
+/// Reads a GLB file with what could not be kept named (see [`parse_reported`]).
+pub fn read_reported(path: &Path) -> Result<(PolyMesh, Vec<String>), Error> {
+    parse_reported(&read_bytes(path)?).map_err(|e| e.with_path(path))
 }
 
 #[cfg(test)]

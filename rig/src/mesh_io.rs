@@ -45,7 +45,8 @@ fn format_of(path: &Path, expected: &'static str) -> Result<MeshFormat, Error> {
     MeshFormat::of(path).ok_or_else(|| Error::UnknownFileType { path: path.to_path_buf(), expected })
 }
 
-/// Reads a polygon mesh from PLY, OBJ, OFF, STL or GLB (an E57 file holds clouds, not meshes).
+/// Reads a polygon mesh from PLY, OBJ, OFF, STL or GLB (an E57 file holds clouds, not meshes). What a
+/// reader cannot keep is dropped; [`read_mesh_reported`] names it.
 pub fn read_mesh(path: &Path) -> Result<PolyMesh, Error> {
     match format_of(path, ".ply, .obj, .off, .stl or .glb")? {
         MeshFormat::Ply => ply::read_mesh(path),
@@ -61,7 +62,8 @@ pub fn read_mesh(path: &Path) -> Result<PolyMesh, Error> {
 }
 
 /// Reads a point cloud from PLY (all attributes), OBJ (`v`, colours, `vn`), OFF or STL (vertices), GLB
-/// (vertices, normals, colours) or E57 (points, colours).
+/// (vertices, normals, colours) or E57 (points, colours). What a reader cannot keep is dropped;
+/// [`read_cloud_reported`] names it.
 pub fn read_cloud(path: &Path) -> Result<PointCloud, Error> {
     let of_mesh =
         |m: PolyMesh| PointCloud { colors: m.colors, normals: m.normals, ..PointCloud::from_positions(m.vertices) };
@@ -77,6 +79,49 @@ pub fn read_cloud(path: &Path) -> Result<PointCloud, Error> {
         MeshFormat::Glb => glb::read(path).map(of_mesh),
         MeshFormat::E57 => e57::read(path),
     }
+}
+
+/// What a reader gave, with what it could not keep named: one sentence per warning, each starting with
+/// the file's path. Nothing a reader drops goes unsaid; the command line prints the warnings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reported<T> {
+    /// What was read.
+    pub value: T,
+    /// What was not kept, and why.
+    pub warnings: Vec<String>,
+}
+
+fn named(path: &Path, warnings: Vec<String>) -> Vec<String> {
+    warnings.into_iter().map(|w| format!("{}: {w}", path.display())).collect()
+}
+
+/// [`read_mesh`], with what the reader could not keep named ([`Reported`]).
+pub fn read_mesh_reported(path: &Path) -> Result<Reported<PolyMesh>, Error> {
+    let (value, warnings) = match format_of(path, ".ply, .obj, .off, .stl or .glb")? {
+        MeshFormat::Obj => obj::read(path).map(|o| (PolyMesh { colors: o.colors, ..o.mesh }, o.warnings))?,
+        MeshFormat::Glb => glb::read_reported(path)?,
+        MeshFormat::Off => off::read_reported(path)?,
+        _ => (read_mesh(path)?, Vec::new()),
+    };
+    Ok(Reported { value, warnings: named(path, warnings) })
+}
+
+/// [`read_cloud`], with what the reader could not keep named ([`Reported`]).
+pub fn read_cloud_reported(path: &Path) -> Result<Reported<PointCloud>, Error> {
+    let of_mesh =
+        |m: PolyMesh| PointCloud { colors: m.colors, normals: m.normals, ..PointCloud::from_positions(m.vertices) };
+    let (value, warnings) = match format_of(path, READ)? {
+        MeshFormat::Obj => obj::read(path).map(|o| {
+            let cloud =
+                PointCloud { colors: o.colors, normals: o.mesh.normals, ..PointCloud::from_positions(o.mesh.vertices) };
+            (cloud, o.warnings)
+        })?,
+        MeshFormat::Glb => glb::read_reported(path).map(|(m, w)| (of_mesh(m), w))?,
+        MeshFormat::E57 => e57::read_reported(path)?,
+        MeshFormat::Off => off::read_reported(path).map(|(m, w)| (PointCloud::from_positions(m.vertices), w))?,
+        _ => (read_cloud(path)?, Vec::new()),
+    };
+    Ok(Reported { value, warnings: named(path, warnings) })
 }
 
 /// Writes a polygon mesh as PLY (with `opts`), OBJ, STL (binary, or ASCII when `opts` ask for it) or GLB,

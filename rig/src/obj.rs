@@ -53,12 +53,16 @@ const IGNORED: &[&str] = &[
 pub struct ObjFile {
     /// Vertices, faces, and per-vertex normals where the file pairs each vertex with one normal.
     pub mesh: PolyMesh,
-    /// Per-vertex colours from `v x y z r g b` lines (0–1 floats scaled to 0–255), when every vertex has one.
+    /// Per-vertex colours from `v x y z r g b` lines, when every vertex has one: 0–1 floats scaled to
+    /// 0–255; a file whose colours go above 1 (written 0–255, as some tools do) is read as 8-bit values.
     pub colors: Option<Vec<[u8; 3]>>,
     /// Number of `vn` lines.
     pub normal_count: usize,
     /// Number of `vt` lines.
     pub texcoord_count: usize,
+    /// What the file holds that this reading does not keep (colours on only some vertices, normals
+    /// given per face corner), one sentence each: nothing is dropped in silence.
+    pub warnings: Vec<String>,
 }
 
 fn number(tok: &str, line: usize) -> Result<f64, ParseError> {
@@ -82,7 +86,8 @@ fn resolve(tok: &str, count: usize, what: &'static str, line: usize) -> Result<u
 pub fn parse(bytes: &[u8]) -> Result<ObjFile, ParseError> {
     let text = String::from_utf8_lossy(bytes);
     let mut mesh = PolyMesh::default();
-    let mut colors: Vec<[u8; 3]> = Vec::new();
+    // Each colour as written, with its line: the scale (0–1 or 0–255) is decided once all are read.
+    let mut colors: Vec<([f64; 3], usize)> = Vec::new();
     let mut normals: Vec<Vector3> = Vec::new();
     let mut texcoord_count = 0usize;
     // The normal each vertex is paired with by the faces; any vertex paired with two different normals
@@ -113,7 +118,7 @@ pub fn parse(bytes: &[u8]) -> Result<ObjFile, ParseError> {
                 mesh.vertices.push(Point3::new(v[0], v[1], v[2]));
                 vertex_normal.push(None);
                 if v.len() == 6 {
-                    colors.push([v[3], v[4], v[5]].map(|c| (c * 255.0).round().clamp(0.0, 255.0) as u8));
+                    colors.push(([v[3], v[4], v[5]], line));
                 }
             }
             "vn" => {
@@ -172,8 +177,37 @@ pub fn parse(bytes: &[u8]) -> Result<ObjFile, ParseError> {
     } else if normals_consistent && !normals.is_empty() && vertex_normal.iter().all(Option::is_some) {
         mesh.normals = Some(vertex_normal.iter().map(|n| normals[n.unwrap()]).collect());
     }
-    let colors = (!colors.is_empty() && colors.len() == mesh.vertices.len()).then_some(colors);
-    Ok(ObjFile { mesh, colors, normal_count: normals.len(), texcoord_count })
+    let mut warnings = Vec::new();
+    if !normals.is_empty() && mesh.normals.is_none() {
+        warnings.push(format!(
+            "its {} normals (`vn`) are not kept: the faces do not give each vertex one normal",
+            normals.len()
+        ));
+    }
+    let colors = if colors.is_empty() {
+        None
+    } else if colors.len() != mesh.vertices.len() {
+        warnings.push(format!(
+            "its vertex colours are not kept: {} of {} vertices have one",
+            colors.len(),
+            mesh.vertices.len()
+        ));
+        None
+    } else {
+        // Written 0–1 (the usual) or 0–255 (some tools): any value above 1 says the latter.
+        let max = colors.iter().flat_map(|(c, _)| *c).fold(0.0f64, f64::max);
+        let (scale, top, range) = if max > 1.0 { (1.0, 255.0, "0–255") } else { (255.0, 1.0, "0–1") };
+        let mut out = Vec::with_capacity(colors.len());
+        for (c, line) in colors {
+            if let Some(x) = c.iter().find(|x| !(0.0..=top).contains(*x)) {
+                let msg = format!("vertex colour {x} is outside {range}, the range the file's other colours are in");
+                return Err(ParseError::new(Location::Line(line), Problem::Invalid(msg)));
+            }
+            out.push(c.map(|x| (x * scale).round() as u8));
+        }
+        Some(out)
+    };
+    Ok(ObjFile { mesh, colors, normal_count: normals.len(), texcoord_count, warnings })
 }
 
 /// Reads an OBJ file.

@@ -7,8 +7,14 @@ use crate::error::{Error, Location, ParseError, Problem, read_bytes};
 use crate::math::Point3;
 use std::path::Path;
 
-/// Parses OFF text into a polygon mesh.
+/// Parses OFF text into a polygon mesh (positions and faces; see [`parse_reported`] for what is not kept).
 pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
+    parse_reported(bytes).map(|(mesh, _)| mesh)
+}
+
+/// [`parse`], with what it does not keep named, one sentence each: the per-vertex colours, normals or
+/// texture coordinates a `C`, `N` or `ST` prefix announces, and per-face colours.
+pub fn parse_reported(bytes: &[u8]) -> Result<(PolyMesh, Vec<String>), ParseError> {
     let text = String::from_utf8_lossy(bytes);
     // Non-empty lines with comments removed, keeping their 1-based numbers for messages.
     let mut lines = text
@@ -69,6 +75,17 @@ pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
         }
         mesh.vertices.push(Point3::new(c[0], c[1], c[2]));
     }
+    let mut warnings = Vec::new();
+    let extras: Vec<&str> = [("ST", "texture coordinates"), ("N", "normals"), ("C", "colours")]
+        .iter()
+        .filter(|(p, _)| prefix.contains(p))
+        .map(|(_, what)| *what)
+        .collect();
+    if !extras.is_empty() {
+        warnings
+            .push(format!("its per-vertex {} ({magic}) are not kept: only positions are read", extras.join(" and ")));
+    }
+    let mut coloured_faces = 0usize;
     let mut face = Vec::new();
     for i in 0..nf {
         let (line, l) =
@@ -92,12 +109,21 @@ pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
             }
             face.push(idx as u32);
         }
+        coloured_faces += usize::from(toks.next().is_some());
         mesh.push_face(&face);
     }
-    Ok(mesh)
+    if coloured_faces > 0 {
+        warnings.push(format!("the colours of {coloured_faces} faces are not kept (scanrig keeps colours per vertex)"));
+    }
+    Ok((mesh, warnings))
 }
 
 /// Reads an OFF file.
 pub fn read(path: &Path) -> Result<PolyMesh, Error> {
     parse(&read_bytes(path)?).map_err(|e| e.with_path(path))
+}
+
+/// Reads an OFF file with what was not kept named (see [`parse_reported`]).
+pub fn read_reported(path: &Path) -> Result<(PolyMesh, Vec<String>), Error> {
+    parse_reported(&read_bytes(path)?).map_err(|e| e.with_path(path))
 }

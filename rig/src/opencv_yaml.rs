@@ -184,6 +184,7 @@ pub fn camera_from_bytes(bytes: &[u8]) -> Result<PinholeCamera, ParseError> {
         cy: k[5],
         distortion: Distortion::from_opencv(c),
     };
+    cam.distortion.validate().map_err(|m| ParseError::new(field("distortion_coefficients"), Problem::Invalid(m)))?;
     cam.validate().map_err(|m| ParseError::new(field("camera_matrix"), Problem::Invalid(m)))?;
     Ok(cam)
 }

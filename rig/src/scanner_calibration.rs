@@ -110,6 +110,7 @@ impl Numbers {
             cy: m[1][2],
             distortion: Distortion::from_opencv(self.distortion),
         };
+        camera.distortion.validate().map_err(|e| err(&field("distortion_vector"), e))?;
         camera.validate().map_err(|e| err(&field("camera_matrix"), e))?;
         // A principal point outside the turned image: the size (or the turn) does not belong to it.
         if !(0.0..width as f64).contains(&camera.cx) || !(0.0..height as f64).contains(&camera.cy) {
@@ -165,7 +166,7 @@ impl Numbers {
             // Normalised: rotations are built from it (the file's numbers stay in platform_rotation).
             direction: UnitVector3::new_normalize(r.column(2).into_owned()),
         };
-        Ok(Rig {
+        let rig = Rig {
             name: name.into(),
             camera,
             projector: None,
@@ -175,7 +176,24 @@ impl Numbers {
             working_height_mm: self.height_mm,
             image: self.image,
             platform_rotation: Some(r),
-        })
+        };
+        // Whatever the checks above leave (planes behind the camera, the platter behind it): named in
+        // the source file's own terms.
+        rig.validate().map_err(|p| {
+            let source = match p.field.as_str() {
+                "camera.distortion" => field("distortion_vector"),
+                "turntable" | "turntable.axis_point_mm" => field("platform_translation"),
+                "turntable.platter_radius_mm" => "turntable.radius".into(),
+                "turntable.working_height_mm" => "turntable.height".into(),
+                f if f.starts_with("lasers[") => {
+                    let k = f.trim_start_matches("lasers[").trim_end_matches(']');
+                    field(&format!("laser {k} normal"))
+                }
+                _ => field("camera_matrix"),
+            };
+            err(&source, p.message)
+        })?;
+        Ok(rig)
     }
 
     /// The numbers of a laser rig with a turntable; `None` with the reason otherwise.
@@ -252,7 +270,10 @@ pub fn rig_from_fabscan(text: &str) -> Result<Rig, ParseError> {
         .ok_or_else(|| err("laser.color", format!("`{colour_text}` is not a colour scanrig knows (R, G or B)")))?;
     let optional = |path: &str| -> Result<Option<f64>, ParseError> {
         match get(&v, path) {
-            Ok(x) => Ok(Some(number(x, path)?).filter(|&r| r > 0.0)),
+            Ok(x) => {
+                let r = number(x, path)?;
+                if r > 0.0 { Ok(Some(r)) } else { Err(err(path, format!("must be positive (millimetres), got {r}"))) }
+            }
             Err(_) => Ok(None),
         }
     };

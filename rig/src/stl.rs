@@ -77,13 +77,7 @@ pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
     let (vertices, faces): (Vec<Point3>, Vec<[u32; 3]>) = if binary {
         binary_triangles(&bytes[84..])
     } else if text.starts_with(b"solid") {
-        // stl_io wants `solid ` at the very start; files start with blanks, or `solid` and a newline.
-        let mut normal = b"solid ".to_vec();
-        normal.extend_from_slice(&text[5..]);
-        let stl = stl_io::read_stl(&mut std::io::Cursor::new(normal))
-            .map_err(|e| invalid(format!("not a readable ASCII STL file: {e}")))?;
-        let v = stl.vertices.iter().map(|v| Point3::new(v[0] as f64, v[1] as f64, v[2] as f64)).collect();
-        (v, stl.faces.iter().map(|f| f.vertices.map(|i| i as u32)).collect())
+        ascii_solids(text)?
     } else if bytes.len() < 84 {
         return Err(ParseError::new(Location::File, Problem::Truncated("the 84-byte binary STL header".into())));
     } else {
@@ -98,6 +92,68 @@ pub fn parse(bytes: &[u8]) -> Result<PolyMesh, ParseError> {
         return Err(ParseError::new(Location::Field(format!("vertex {i}")), Problem::NonFinite("a coordinate".into())));
     }
     Ok(PolyMesh::from_faces(vertices, faces))
+}
+
+/// Every solid of an ASCII STL file (a file may hold several, one after another: all are kept, their
+/// corners with identical coordinates merged across solids), each read by `stl_io`. Text after the last
+/// `endsolid` that is not another solid is refused, naming its line.
+fn ascii_solids(text: &[u8]) -> Result<(Vec<Point3>, Vec<[u32; 3]>), ParseError> {
+    let invalid = |m: String| ParseError::new(Location::File, Problem::Invalid(m));
+    // Each solid's text: from its `solid` line to the line after its `endsolid`.
+    let mut solids: Vec<(usize, &[u8])> = Vec::new();
+    let (mut start, mut start_line, mut pos) = (0usize, 1usize, 0usize);
+    for (k, line) in text.split_inclusive(|&b| b == b'\n').enumerate() {
+        pos += line.len();
+        if line.trim_ascii_start().starts_with(b"endsolid") {
+            solids.push((start_line, &text[start..pos]));
+            start = pos;
+            start_line = k + 2;
+        }
+    }
+    let rest = &text[start..];
+    if !rest.trim_ascii().is_empty() || solids.is_empty() {
+        // The last solid without its `endsolid` is read as it is (stl_io says what is wrong with it).
+        if !rest.trim_ascii_start().starts_with(b"solid") && !solids.is_empty() {
+            return Err(ParseError::new(
+                Location::Line(
+                    start_line + rest.iter().take_while(|b| b.is_ascii_whitespace()).filter(|&&b| b == b'\n').count(),
+                ),
+                Problem::TrailingData(
+                    String::from_utf8_lossy(&rest.trim_ascii()[..rest.trim_ascii().len().min(40)]).into(),
+                ),
+            ));
+        }
+        solids.push((start_line, rest));
+    }
+    let mut index: std::collections::HashMap<[u32; 3], u32> = std::collections::HashMap::new();
+    let (mut vertices, mut faces) = (Vec::new(), Vec::new());
+    for (n, (line, solid)) in solids.iter().enumerate() {
+        let solid = solid.trim_ascii_start();
+        // stl_io wants `solid ` at the very start; files start with blanks, or `solid` and a newline.
+        let mut normal = b"solid ".to_vec();
+        normal.extend_from_slice(&solid[5.min(solid.len())..]);
+        let stl = stl_io::read_stl(&mut std::io::Cursor::new(normal)).map_err(|e| {
+            let which = if solids.len() > 1 {
+                format!(" (solid {} of {}, from line {line})", n + 1, solids.len())
+            } else {
+                String::new()
+            };
+            invalid(format!("not a readable ASCII STL file{which}: {e}"))
+        })?;
+        let map: Vec<u32> = stl
+            .vertices
+            .iter()
+            .map(|v| {
+                let xyz = [v[0], v[1], v[2]];
+                *index.entry(xyz.map(f32::to_bits)).or_insert_with(|| {
+                    vertices.push(Point3::new(xyz[0] as f64, xyz[1] as f64, xyz[2] as f64));
+                    (vertices.len() - 1) as u32
+                })
+            })
+            .collect();
+        faces.extend(stl.faces.iter().map(|f| f.vertices.map(|i| map[i])));
+    }
+    Ok((vertices, faces))
 }
 
 /// Binary STL's 50-byte records (normal, three corners, attribute), corners with identical bits merged.
@@ -168,5 +224,32 @@ mod tests {
         let mut b = mesh_to_binary(&tetrahedron());
         b[..8].copy_from_slice(b"solid x\n");
         assert_eq!(parse(&b).unwrap().face_count(), 4);
+        let e = parse(format!("{ascii}garbage after the end\n").as_bytes()).unwrap_err().to_string();
+        assert!(e.contains("garbage after the end") && e.contains("line"), "{e}");
+    }
+
+    /// An ASCII file with two solids keeps both (issue 37: the second was dropped in silence).
+    #[test]
+    fn every_solid_of_an_ascii_file_is_kept() {
+        let t = tetrahedron();
+        let far = PolyMesh::from_faces(
+            t.vertices.iter().map(|p| p + Vector3::new(100.0, 0.0, 0.0)).collect(),
+            [[0u32, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        );
+        let two = [mesh_to_ascii(&t, "a"), mesh_to_ascii(&far, "b")].concat();
+        let m = parse(&two).unwrap();
+        assert_eq!((m.vertices.len(), m.face_count()), (8, 8));
+        let volume = m.triangulate().signed_volume();
+        assert!((volume - 2.0 * t.triangulate().signed_volume()).abs() < 1e-6, "{volume}");
+        // Two solids sharing a corner merge it; a broken second solid is named.
+        let same = [mesh_to_ascii(&t, "a"), mesh_to_ascii(&t, "b")].concat();
+        assert_eq!(parse(&same).unwrap().vertices.len(), 4);
+        let broken = [
+            mesh_to_ascii(&t, "a"),
+            b"solid b\n  facet normal 0 0 1\n    outer loop\n      vertex 1 2\nendsolid b\n".to_vec(),
+        ]
+        .concat();
+        let e = parse(&broken).unwrap_err().to_string();
+        assert!(e.contains("solid 2 of 2"), "{e}");
     }
 }

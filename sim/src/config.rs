@@ -329,7 +329,7 @@ impl SimConfig {
 
     /// Reads a configuration file.
     pub fn read(path: &Path) -> Result<SimConfig, Error> {
-        let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+        let bytes = rig::input::read_regular(path, None)?;
         SimConfig::from_toml_str(&String::from_utf8_lossy(&bytes)).map_err(|e| e.with_path(path))
     }
 

@@ -29,7 +29,8 @@ impl Hash {
 
     /// The hash of a file's content; `None` when it cannot be read.
     pub fn of_file(path: &Path) -> Option<Hash> {
-        std::fs::read(path).ok().map(|b| Hash::of(&b))
+        // Only a regular file: a FIFO or a device is "cannot be read", not waited on.
+        rig::input::read_regular(path, None).ok().map(|b| Hash::of(&b))
     }
 
     fn hex(self) -> String {
@@ -210,7 +211,7 @@ impl Records {
     /// stage then runs). `redo` makes every decision [`Decision::Run`].
     pub fn open(out: &Path, redo: bool) -> Records {
         let path = out.join(RECORDS_NAME);
-        let file = std::fs::read(&path)
+        let file = rig::input::read_regular(&path, None)
             .ok()
             .and_then(|b| serde_json::from_slice::<RecordsFile>(&b).ok())
             .filter(|f| f.format == RECORDS_FORMAT)

@@ -196,7 +196,9 @@ fn a_laser_plane_outside_the_working_volume_is_refused_and_a_lost_frame_reported
     let (_, _, scan) = simulate(&cfg, "process-laser-wrong-plane", 3, false);
     let good = rig::Rig::read(&scan.join("rig.toml")).unwrap();
     let mut wrong = good.clone();
-    wrong.lasers[1].plane = rig::LaserPlane::new(wrong.lasers[1].plane.normal.into_inner(), 900.0).unwrap();
+    // Its distance typed with the wrong sign and far: the plane still crosses the camera's view (a plane
+    // no ray of the image meets is refused when the rig is read, `Rig::validate`), 1.9 m away.
+    wrong.lasers[1].plane = rig::LaserPlane::new(wrong.lasers[1].plane.normal.into_inner(), -900.0).unwrap();
     wrong.write(&scan.join("rig.toml")).unwrap();
     let params = ProcessParams { until: process::Stage::Merge, ..Default::default() };
     let err = process_scan(&scan, &scan.join("processed"), &params, |_, _, _| {}).unwrap_err().to_string();

@@ -39,17 +39,49 @@ fn normals(v: &Element) -> Option<Vec<Vector3>> {
     Some((0..v.len()).map(|i| Vector3::new(x[i], y[i], z[i])).collect())
 }
 
-/// `red green blue` (or `diffuse_*`); integer types are 0–255, float types 0–1.
-fn colors(v: &Element) -> Option<Vec<[u8; 3]>> {
+/// `red green blue` (or `diffuse_*`), scaled to 8 bits by their type: `uchar` as it is, `ushort` (16-bit
+/// colour, 0–65535) scaled by 255/65535, float types 0–1 scaled by 255. A float colour above 1 is taken
+/// as written 0–255 (as some tools do) when every value of the three channels is within 0–255. Any other
+/// value outside its range (a negative one, an `int` colour above 255, a float beyond 255) is refused,
+/// naming the entry: nothing is clamped in silence.
+fn colors(v: &Element) -> Result<Option<Vec<[u8; 3]>>, ParseError> {
     let names = [["red", "green", "blue"], ["diffuse_red", "diffuse_green", "diffuse_blue"]];
-    let cols = names.iter().find_map(|n| Some([v.scalar(n[0])?, v.scalar(n[1])?, v.scalar(n[2])?]))?;
-    let is_float = v
-        .def
-        .properties
-        .iter()
-        .any(|p| p.name.ends_with("red") && matches!(p.kind, super::PropertyKind::Scalar(t) if !t.is_integer()));
-    let to_u8 = |c: f64| if is_float { (c * 255.0).round().clamp(0.0, 255.0) as u8 } else { c.clamp(0.0, 255.0) as u8 };
-    Some((0..v.len()).map(|i| [to_u8(cols[0][i]), to_u8(cols[1][i]), to_u8(cols[2][i])]).collect())
+    let Some((names, cols)) = names.iter().find_map(|n| Some((n, [v.scalar(n[0])?, v.scalar(n[1])?, v.scalar(n[2])?])))
+    else {
+        return Ok(None);
+    };
+    let ty = |name: &str| {
+        v.def.properties.iter().find(|p| p.name == name).and_then(|p| match p.kind {
+            super::PropertyKind::Scalar(t) => Some(t),
+            _ => None,
+        })
+    };
+    let mut out = vec![[0u8; 3]; v.len()];
+    for (c, (name, col)) in names.iter().zip(cols).enumerate() {
+        let t = ty(name).unwrap_or(super::ScalarType::U8);
+        let is_float = !t.is_integer();
+        let max = col.iter().fold(0.0f64, |m, &x| m.max(x));
+        let (scale, top) = match t {
+            super::ScalarType::U16 => (255.0 / 65535.0, 65535.0),
+            _ if is_float && max <= 1.0 => (255.0, 1.0),
+            _ => (1.0, 255.0),
+        };
+        for (i, &x) in col.iter().enumerate() {
+            if !(0.0..=top).contains(&x) {
+                let range = if is_float {
+                    "0–1 (or 0–255 written as floats)"
+                } else if top > 255.0 {
+                    "0–65535"
+                } else {
+                    "0–255"
+                };
+                let msg = format!("colour `{name}` {x} is outside {range} for its type `{}`", t.name());
+                return Err(ParseError::new(at(v, i), Problem::Invalid(msg)));
+            }
+            out[i][c] = (x * scale).round() as u8;
+        }
+    }
+    Ok(Some(out))
 }
 
 /// The `vertex` element as a point cloud.
@@ -58,7 +90,7 @@ pub fn cloud_from_ply(ply: &PlyFile) -> Result<PointCloud, ParseError> {
     Ok(PointCloud {
         positions: positions(v)?,
         normals: normals(v),
-        colors: colors(v),
+        colors: colors(v)?,
         confidence: v.scalar("confidence").map(|c| c.iter().map(|&x| x as f32).collect()),
         view_id: v.scalar("view_id").map(|c| c.iter().map(|&x| x as u32).collect()),
     })
@@ -81,7 +113,7 @@ fn index(el: &Element, entry: usize, raw: f64, count: usize) -> Result<u32, Pars
 /// A mesh from `face` (lists of any size) or, failing that, `tristrips`.
 pub fn mesh_from_ply(ply: &PlyFile) -> Result<PolyMesh, ParseError> {
     let v = vertex_element(ply)?;
-    let mut mesh = PolyMesh { vertices: positions(v)?, normals: normals(v), colors: colors(v), ..Default::default() };
+    let mut mesh = PolyMesh { vertices: positions(v)?, normals: normals(v), colors: colors(v)?, ..Default::default() };
     let n = mesh.vertices.len();
     if let Some(f) = ply.element("face") {
         let (_, offsets, values) = f.first_list().ok_or_else(|| missing("a list property of element `face`".into()))?;
@@ -184,7 +216,7 @@ pub fn sparse_view_from_ply(ply: &PlyFile) -> Result<SparseView, ParseError> {
         }
         view.push(p, [c as f32, r as f32], conf.map_or(1.0, |k| k[i] as f32));
     }
-    view.colors = colors(v);
+    view.colors = colors(v)?;
     Ok(view)
 }
 
@@ -235,7 +267,7 @@ pub fn range_grid_from_ply(ply: &PlyFile) -> Result<RangeGrid, ParseError> {
         }
     }
     let mut grid = RangeGrid::empty(w, h, sensor(ply));
-    let (vn, vc, vrgb) = (normals(v), v.scalar("confidence"), colors(v));
+    let (vn, vc, vrgb) = (normals(v), v.scalar("confidence"), colors(v)?);
     let mut cell_normals = vn.as_ref().map(|_| vec![Vector3::zeros(); cells]);
     let mut cell_conf = vc.map(|_| vec![0.0f32; cells]);
     let mut cell_rgb = vrgb.as_ref().map(|_| vec![[0u8; 3]; cells]);

@@ -25,10 +25,10 @@ fn read_everything(bytes: &[u8]) {
         let _ = p.header.units();
     }
     let _ = rig::obj::parse(bytes);
-    let _ = rig::off::parse(bytes);
+    let _ = rig::off::parse_reported(bytes);
     let _ = rig::stl::parse(bytes);
-    let _ = rig::glb::parse(bytes);
-    let _ = rig::e57::parse(bytes);
+    let _ = rig::glb::parse_reported(bytes);
+    let _ = rig::e57::parse_reported(bytes);
     let _ = rig::opencv_yaml::camera_from_bytes(bytes);
     let _ = rig::Rig::from_toml_str(&String::from_utf8_lossy(bytes));
     let _ = rig::npy::parse(bytes);
@@ -96,6 +96,17 @@ element tristrips 1\nproperty list int int vertex_indices\nend_header\n"
     coloured.colors = Some(vec![[9, 8, 7]; 4]);
     out.push(rig::stl::mesh_to_binary(&mesh));
     out.push(rig::stl::mesh_to_ascii(&mesh, "fuzz"));
+    // Two solids in one ASCII file (both are kept).
+    out.push([rig::stl::mesh_to_ascii(&mesh, "a"), rig::stl::mesh_to_ascii(&mesh, "b")].concat());
+    // A baseline JPEG: its entropy-coded data are walked (rig's jpeg_check) after decoding.
+    let rgb = rig::image::Image8 {
+        width: 24,
+        height: 16,
+        channels: 3,
+        data: (0..24 * 16 * 3).map(|i| (i * 7 % 251) as u8).collect(),
+    };
+    out.push(rig::image::jpeg_bytes(&rgb, 80));
+    out.push(rig::image::jpeg_bytes(&rgb.to_gray(), 60));
     out.push(rig::glb::mesh_to_bytes(&coloured));
     out.push(rig::glb::cloud_to_bytes(&cloud));
     out.push(rig::e57::cloud_to_bytes(&cloud).expect("the seed cloud writes"));
@@ -265,6 +276,7 @@ fn mutated_files_never_panic() {
             || rig::Rig::from_toml_str(&String::from_utf8_lossy(s)).is_ok()
             || rig::npy::parse(s).is_ok()
             || rig::image::decode_png(s).is_ok()
+            || rig::image::decode_jpeg(s).is_ok()
             || rig::Manifest::from_json(s).is_ok()
             || rig::remesh_inputs::parse_constraints(s).is_ok_and(|c| !c.is_empty())
             || rig::remesh_inputs::parse_face_values(s, 3).is_ok()
@@ -318,6 +330,50 @@ element face 2\nproperty list uchar int vertex_indices\nelement tristrips 1\npro
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(500))]
+
+    /// `Rig::validate` never panics, and a rig it accepts is accepted again through its TOML file; one it
+    /// refuses is refused when read, naming the same field.
+    #[test]
+    fn rigs_are_validated_wherever_they_are_read(
+        d in prop::array::uniform5(prop_oneof![-2.0f64..2.0, Just(1e30), Just(-5e3), Just(f64::NAN)]),
+        cx in -2000.0f64..3000.0, cy in -2000.0f64..3000.0,
+        n in prop::array::uniform3(-1.0f64..1.0), dist in prop_oneof![-300.0f64..300.0, Just(0.0)],
+        z in -400.0f64..400.0, radius in prop_oneof![Just(None), Just(Some(0.0)), Just(Some(-1.0)), (1.0f64..200.0).prop_map(Some)],
+    ) {
+        prop_assume!(Vector3::from(n).norm() > 0.1);
+        let r = rig::Rig {
+            name: "p".into(),
+            camera: rig::PinholeCamera { width: 1280, height: 960, fx: 1000.0, fy: 1000.0, cx, cy, distortion: rig::Distortion::from_opencv(d) },
+            projector: None,
+            lasers: vec![rig::Laser { name: "l".into(), plane: rig::LaserPlane::new(Vector3::from(n), dist).unwrap(), colour: rig::LaserColour::Red }],
+            turntable: Some(rig::TurntableAxis { point: Point3::new(0.0, 50.0, z), direction: rig::UnitVector3::new_normalize(-Vector3::y()) }),
+            platter_radius_mm: radius,
+            working_height_mm: None,
+            image: Default::default(),
+            platform_rotation: None,
+        };
+        let verdict = r.validate();
+        let text = r.to_toml_string();
+        // NaN cannot be written to TOML as a number that reads back as the same rig: only compare fields.
+        match (verdict, rig::Rig::from_toml_str(&text)) {
+            (Ok(()), Ok(back)) => prop_assert!(back.validate().is_ok()),
+            (Ok(()), Err(e)) => prop_assert!(false, "accepted, then refused on reading: {}", e),
+            (Err(p), Err(e)) => prop_assert!(e.to_string().contains(&p.field) || e.to_string().contains("camera"), "{} vs {}", p, e),
+            (Err(p), Ok(_)) => prop_assert!(false, "refused ({}), then accepted on reading", p),
+        }
+    }
+
+    /// 16-bit PLY colours scale to 8 bits (v · 255 / 65535, rounded), never clamp.
+    #[test]
+    fn sixteen_bit_colours_scale(v in prop::array::uniform3(0u16..=u16::MAX)) {
+        let text = format!(
+            "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n\
+             property ushort red\nproperty ushort green\nproperty ushort blue\nend_header\n0 0 0 {} {} {}\n",
+            v[0], v[1], v[2]
+        );
+        let c = ply::cloud_from_ply(&ply::parse(text.as_bytes()).unwrap()).unwrap().colors.unwrap()[0];
+        prop_assert_eq!(c, v.map(|x| (x as f64 * 255.0 / 65535.0).round() as u8));
+    }
 
     /// Written constraint lines read back as they were.
     #[test]

@@ -7,3 +7,4 @@ mod malformed;
 mod rig_files;
 mod roundtrip;
 mod scanner_files;
+mod trusted_inputs;

@@ -102,7 +102,8 @@ proptest::proptest! {
             projector: None,
             lasers: (0..lasers).map(|k| rig::Laser { name: ["left", "right"][k].into(), plane, colour: rig::LaserColour::Red }).collect(),
             turntable: Some(rig::TurntableAxis {
-                point: rig::Point3::from(point),
+                // The platter in front of the camera, as on every scanner (`Rig::validate`).
+                point: rig::Point3::new(point[0], point[1], point[2].abs().max(50.0)),
                 direction: rig::UnitVector3::new_normalize(rig::Vector3::new(tilt, -1.0, 0.1)),
             }),
             platter_radius_mm: Some(70.0),
@@ -110,6 +111,8 @@ proptest::proptest! {
             image,
             platform_rotation: None,
         };
+        // Laser planes behind the camera, or through its centre, are no scanner's (`Rig::validate`).
+        proptest::prop_assume!(rig.validate().is_ok());
         // The first export fixes the platform rotation; from then on every number stays.
         let once = rig_from_horus(&rig_to_horus(&rig).unwrap()).unwrap();
         // The axis is normalised on reading (rotations are built from it): equal to the last bits. (Compared
@@ -295,8 +298,9 @@ fn malformed_scanner_files_are_refused_naming_the_field() {
 
 proptest::proptest! {
     #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
-    /// Any set of file names in a FabScanPi frame folder is either a whole, gap-free scan or refused,
-    /// never a panic; an accepted one lists every frame once.
+    /// Any set of file names in a FabScanPi frame folder is either whole positions (each with every
+    /// laser's frame; positions missing whole are named) or refused, never a panic; an accepted one
+    /// lists every frame once.
     #[test]
     fn fabscan_frame_folders_are_whole_or_refused(
         names in proptest::collection::vec("(s|t)_[0-9]{1,4}\\.(jpg|png|txt)|x", 0..12), lasers in 1usize..3,
@@ -313,6 +317,13 @@ proptest::proptest! {
             let mut unique = all.clone();
             unique.dedup();
             proptest::prop_assert_eq!(unique.len(), all.len());
+            // Any step: views inside one turn at angles in [0°, 360°), or refused.
+            for step in [0.0, 3.6, 45.0, 400.0] {
+                if let Ok((m, _)) = rig::fabscan_scan::manifest(&f, step, "frames", "t", d.path()) {
+                    proptest::prop_assert!(m.views.iter().all(|v| (0.0..360.0).contains(&v.angle_deg)));
+                    proptest::prop_assert!(m.views.len() <= f.positions.len());
+                }
+            }
         }
     }
 }
