@@ -6,7 +6,19 @@ use rig::Pattern;
 use std::path::Path;
 
 pub fn run(args: &DecodeArgs) -> Result<()> {
-    crate::outputs::distinct(&[("--out", Some(&args.out))])?;
+    let ext = args.out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("npy" | "ply")) {
+        bail!(
+            "--out {}: the map is written as NumPy .npy (or, with --rig, a triangulated .ply); name it so",
+            args.out.display()
+        );
+    }
+    let preview = preview_path(&args.out);
+    rig::run_files::input_folder(&args.dir);
+    crate::outputs::plan(
+        &[("DIR", &args.dir)],
+        &[("--out", Some(&args.out)), ("the preview", (ext.as_deref() == Some("npy")).then_some(preview.as_path()))],
+    )?;
     let rig = args.rig.as_ref().map(|p| rig::Rig::read(p)).transpose()?;
     let projector = match (&rig, args.rig.as_ref()) {
         (Some(r), Some(path)) => Some(r.projector.as_ref().with_context(|| {
@@ -34,29 +46,12 @@ pub fn run(args: &DecodeArgs) -> Result<()> {
             args.out.display()
         );
     }
-    let order = match args.order {
-        FrameOrder::Opencv => rig::gray_code_folders::opencv_order(pw, ph),
+    // The library lists the folder in frame order (by number, never as text) and refuses a duplicate,
+    // a gap or an extra image by name.
+    let frames_of = match args.order {
+        FrameOrder::Opencv => rig::gray_code_folders::pose_frames,
     };
-    let image_ext = |p: &std::path::Path| {
-        p.extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| ["png", "jpg", "jpeg"].iter().any(|x| e.eq_ignore_ascii_case(x)))
-    };
-    let mut files: Vec<_> = std::fs::read_dir(&args.dir)
-        .with_context(|| format!("reading {}", args.dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| image_ext(p))
-        .collect();
-    files.sort();
-    if files.len() != order.len() {
-        bail!(
-            "{}: {} images, but a {pw}x{ph} projector in OpenCV order needs {} ({} Gray-code pairs, then white and black)",
-            args.dir.display(),
-            files.len(),
-            order.len(),
-            (order.len() - 2) / 2
-        );
-    }
+    let (order, files): (Vec<Pattern>, Vec<std::path::PathBuf>) = frames_of(&args.dir, pw, ph)?.into_iter().unzip();
     let turn = rig.as_ref().map(|r| r.image).unwrap_or_default();
     let images = files
         .iter()
@@ -66,9 +61,16 @@ pub fn run(args: &DecodeArgs) -> Result<()> {
         })
         .collect::<Result<Vec<_>, rig::Error>>()?;
     let frames: Vec<(Pattern, &rig::image::Image8)> = order.iter().copied().zip(images.iter()).collect();
-    let params = args.decode.params()?;
-    let (map, report) = process::pipeline::stages::decode(&frames, (pw, ph), &params)
-        .with_context(|| format!("decoding {}", args.dir.display()))?;
+    let names: Vec<String> = files.iter().map(|f| f.display().to_string()).collect();
+    let params = process::DecodeParams { force: args.force, ..args.decode.params()? };
+    let (map, mut report) = match process::decode_view(&frames, pw, ph, &params) {
+        Ok(r) => r,
+        Err(e) => return Err(e.name_frames(&names)).with_context(|| format!("decoding {}", args.dir.display())),
+    };
+    report.name_frames(&names);
+    for w in report.warnings() {
+        eprintln!("warning: {w}");
+    }
     if let (true, Some(rig), Some(projector)) = (to_ply, &rig, projector) {
         let tri = process::triangulate::Triangulator::new(&rig.camera, projector);
         let tp = process::triangulate::TriangulateParams::default();
@@ -101,7 +103,6 @@ pub fn run(args: &DecodeArgs) -> Result<()> {
         return Ok(());
     }
     rig::npy::write(&args.out, &map.to_npy())?;
-    let preview = args.out.with_extension("png");
     rig::image::write_png(&preview, &map.preview(pw, ph), false)?;
     if args.json {
         let json = serde_json::json!({"output": args.out, "preview": preview, "report": report});
@@ -118,4 +119,10 @@ pub fn run(args: &DecodeArgs) -> Result<()> {
         preview.display()
     );
     Ok(())
+}
+
+/// The map's preview beside it: `map.npy` → `map.preview.png`, never the name of a data file.
+fn preview_path(out: &Path) -> std::path::PathBuf {
+    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "map".into());
+    out.with_file_name(format!("{stem}.preview.png"))
 }

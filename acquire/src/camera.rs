@@ -1,5 +1,5 @@
 //! Cameras a session captures from: the trait, and the image-folder replay backend (frames another
-//! tool recorded, taken in name order). The V4L2 backend sits behind the `v4l2` feature; the
+//! tool recorded, taken in the order of their numbers). The V4L2 backend sits behind the `v4l2` feature; the
 //! simulator's camera lives with the command line, which wires the simulator in.
 
 use rig::Pattern;
@@ -40,7 +40,8 @@ pub trait Camera {
     fn capture(&mut self, shot: &Shot) -> Result<Image8, CameraError>;
 }
 
-/// Replays the PNG or JPEG images of a folder in name order, one per capture.
+/// Replays the PNG or JPEG images of a folder in the order of their numbers (`img1, img2, …, img10`, not
+/// as text: [`rig::frame_order`]), one per capture.
 pub struct FolderCamera {
     files: Vec<PathBuf>,
     next: usize,
@@ -48,14 +49,13 @@ pub struct FolderCamera {
 }
 
 impl FolderCamera {
-    /// The images of `dir`.
+    /// The images of `dir`; refused when they are not one numbered series (a duplicate number, a
+    /// gap, an image of another series), each named: replayed, every frame after it would be
+    /// recorded under the wrong pattern.
     pub fn open(dir: &Path) -> Result<FolderCamera, CameraError> {
-        let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-            .map_err(|e| CameraError::Unavailable(format!("{}: {e}", dir.display())))?
-            .filter_map(|e| e.ok().map(|e| e.path()))
-            .filter(|p| rig::image::is_image_file(p))
-            .collect();
-        files.sort();
+        let listed = rig::frame_order::list_images(dir)
+            .map_err(|e| CameraError::Unavailable(format!("{}: {e}", dir.display())))?;
+        let files = listed.complete(dir)?;
         let first = files
             .first()
             .ok_or_else(|| CameraError::Unavailable(format!("{}: no PNG or JPEG images", dir.display())))?;

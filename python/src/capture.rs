@@ -266,18 +266,7 @@ fn decode<'py>(
         gray_fit_radius: gray_fit_radius.unwrap_or(d.gray_fit_radius),
         ..d
     };
-    // The command line's checks (`scanrig decode --shadow-threshold`, `--gray-fit-radius`).
-    if !(params.shadow_threshold >= 0.0 && params.shadow_threshold <= 255.0) {
-        return Err(PyValueError::new_err(format!(
-            "shadow_threshold must be a grey level from 0 to 255, got {}",
-            params.shadow_threshold
-        )));
-    }
-    if params.gray_fit_radius == 1 {
-        return Err(PyValueError::new_err(
-            "gray_fit_radius 1 holds 9 neighbours, too few for the quadratic's 6 terms: give 0 (off) or 2 and up",
-        ));
-    }
+    // Checked by the library (`DecodeParams::validate`, the first thing decoding does).
     let (map, r) = interruptible(py, move || {
         let frames: Vec<(Pattern, &Image8)> = order.iter().copied().zip(images.iter()).collect();
         ::process::pipeline::stages::decode(&frames, (pw, ph), &params)

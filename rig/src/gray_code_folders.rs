@@ -43,48 +43,48 @@ pub fn infer_projector_size(count: usize) -> Option<(u32, u32)> {
     (cols <= 16 && rows >= 1).then(|| (1u32 << cols, 1u32 << rows))
 }
 
-/// The images of one pose folder, in name order (PNG or JPEG).
+/// The images of one pose folder (PNG or JPEG) in frame order: by their numbers, never as text
+/// ([`crate::frame_order`]), so `graycode_0 … graycode_41` and `img1 … img42` come in capture order.
+/// Duplicates, gaps and extra images are not refused here (see [`pose_frames`]).
 pub fn pose_images(dir: &Path) -> Result<Vec<PathBuf>, Error> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| Error::io(dir, e))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| crate::image::is_image_file(p))
-        .collect();
-    files.sort();
-    Ok(files)
+    Ok(crate::frame_order::list_images(dir)?.files)
 }
 
-/// The pose folders under `dir` (its subfolders holding images), in name order; empty when `dir`
-/// is not laid out that way.
+/// The pose folders under `dir` (its subfolders holding images), in natural order of their names;
+/// empty when `dir` is not laid out that way.
 pub fn pose_folders(dir: &Path) -> Vec<PathBuf> {
     let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
-    let mut dirs: Vec<PathBuf> = entries
+    let dirs: Vec<PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.is_dir() && pose_images(p).is_ok_and(|f| !f.is_empty()))
         .collect();
-    dirs.sort();
-    dirs
+    crate::frame_order::order(dirs).files
 }
 
-/// One pose folder's frames, each with the pattern it shows for a `width × height` projector;
-/// refuses a folder whose image count is not that projector's program, saying what it expected.
+/// One pose folder's frames, each with the pattern it shows for a `width × height` projector, taken in
+/// the order of their numbers; refuses a folder whose images are not one numbered series (a duplicate,
+/// a gap, an extra image, each named) or whose image count is not that projector's program, saying
+/// what it expected.
 pub fn pose_frames(dir: &Path, width: u32, height: u32) -> Result<Vec<(Pattern, PathBuf)>, Error> {
-    let files = pose_images(dir)?;
+    let listed = crate::frame_order::list_images(dir)?;
     let order = opencv_order(width, height);
-    if files.len() != order.len() {
+    if listed.files.len() != order.len() || !listed.problems.is_empty() {
         let msg = format!(
-            "{} images, but a {width}×{height} projector in OpenCV order needs {} ({} Gray-code pairs, then white and \
-             black){}",
-            files.len(),
+            "{} images, but a {width}x{height} projector in OpenCV order needs {} ({} Gray-code pairs, then white and \
+             black){}{}",
+            listed.files.len(),
             order.len(),
             (order.len() - 2) / 2,
-            infer_projector_size(files.len())
-                .map(|(w, h)| format!("; that many fit a projector of up to {w}×{h}"))
-                .unwrap_or_default()
+            infer_projector_size(listed.files.len())
+                .filter(|_| listed.files.len() != order.len())
+                .map(|(w, h)| format!("; that many fit a projector of up to {w}x{h}"))
+                .unwrap_or_default(),
+            if listed.problems.is_empty() { String::new() } else { format!("; {}", listed.describe()) },
         );
+        let msg = if listed.files.len() == order.len() { listed.describe() } else { msg };
         return Err(ParseError::new(Location::File, Problem::Invalid(msg)).with_path(dir));
     }
-    Ok(order.into_iter().zip(files).collect())
+    Ok(order.into_iter().zip(listed.files).collect())
 }
 
 /// Writes the Gray-code frames of a scanrig capture folder's views (those that captured the whole
@@ -127,5 +127,33 @@ mod tests {
         assert!(matches!(o[1], Pattern::Gray { axis: Axis::Columns, bit: 0, inverse: true, .. }));
         assert!(matches!(o[20], Pattern::Gray { axis: Axis::Rows, bit: 0, inverse: false, .. }));
         assert_eq!((o[40], o[41]), (Pattern::White, Pattern::Black));
+    }
+
+    /// Issue 37: `graycode_0 … graycode_41` and `img1 … img42` were taken as text (`0, 1, 10, 11, …`),
+    /// so 32 of 42 frames were decoded as the wrong pattern. They now come in number order, and a
+    /// duplicate or an extra image is named instead of shifting every frame after it.
+    #[test]
+    fn unpadded_frame_numbers_are_taken_in_number_order() {
+        for (first, name) in [(0, "graycode_"), (1, "img")] {
+            let d = tempfile::tempdir().unwrap();
+            for k in (first..first + 42).rev() {
+                std::fs::write(d.path().join(format!("{name}{k}.png")), b"").unwrap();
+            }
+            let frames = pose_frames(d.path(), 1024, 768).unwrap();
+            for (k, (p, f)) in frames.iter().enumerate() {
+                assert_eq!(f.file_name().unwrap().to_string_lossy(), format!("{name}{}.png", k + first));
+                assert_eq!(*p, opencv_order(1024, 768)[k]);
+            }
+            // img01.png beside img1.png: 43 images, the duplicate named.
+            std::fs::write(d.path().join(format!("{name}0{}.png", first + 1)), b"").unwrap();
+            let e = pose_frames(d.path(), 1024, 768).unwrap_err().to_string();
+            assert!(e.contains("43 images") && e.contains("carry the same frame number"), "{e}");
+            // One removed instead: 42 images with a gap and an extra named.
+            std::fs::remove_file(d.path().join(format!("{name}{}.png", first + 7))).unwrap();
+            std::fs::rename(d.path().join(format!("{name}0{}.png", first + 1)), d.path().join("preview.png")).unwrap();
+            let e = pose_frames(d.path(), 1024, 768).unwrap_err().to_string();
+            assert!(e.contains(&format!("frame number {} is missing", first + 7)), "{e}");
+            assert!(e.contains("preview.png is not numbered like the other frames"), "{e}");
+        }
     }
 }

@@ -168,10 +168,27 @@ impl Manifest {
             return Err(ParseError::new(Location::Field("rig".into()), Problem::Invalid(msg)));
         }
         for (i, v) in m.views.iter().enumerate() {
+            let max = crate::limits::MAX_ABS_ANGLE_DEG;
+            if !(v.angle_deg.is_finite() && v.angle_deg.abs() <= max) {
+                let msg = format!("{} is not a turntable angle (finite, within ±{max} degrees)", v.angle_deg);
+                return Err(ParseError::new(Location::Field(format!("views[{i}].angle_deg")), Problem::Invalid(msg)));
+            }
             for f in &v.frames {
                 let p = Path::new(&f.file);
                 if p.is_absolute() || p.components().any(|c| matches!(c, std::path::Component::ParentDir)) {
                     let msg = format!("frame file `{}` must be a relative path inside the scan folder", f.file);
+                    return Err(ParseError::new(Location::Field(format!("views[{i}].frames")), Problem::Invalid(msg)));
+                }
+            }
+            // A file listed twice, or two files for one pattern: one of them would be decoded as a frame it
+            // is not (or ignored).
+            for (k, f) in v.frames.iter().enumerate() {
+                if let Some(e) = v.frames[..k].iter().find(|e| e.file == f.file || e.pattern == f.pattern) {
+                    let msg = if e.file == f.file {
+                        format!("frame file `{}` is listed twice", f.file)
+                    } else {
+                        format!("`{}` and `{}` both show {}", e.file, f.file, f.pattern.name())
+                    };
                     return Err(ParseError::new(Location::Field(format!("views[{i}].frames")), Problem::Invalid(msg)));
                 }
             }

@@ -3,8 +3,9 @@
 //! from a plain folder of images.
 //!
 //! In a plain folder (other tools' captures, such as FabScan's calibration sweep) the frames are
-//! taken in name order; a frame much darker than the lit frame before it is a laser frame of that
-//! position — the first such frame laser 0, the next laser 1 — as FabScan and Horus capture them.
+//! taken in the order of their numbers (never as text); a frame much darker than the lit frame before
+//! it is a laser frame of that position — the first such frame laser 0, the next laser 1 — as FabScan
+//! and Horus capture them.
 
 use super::WorkflowError as E;
 use rig::image::Image8;
@@ -154,7 +155,7 @@ fn from_manifest(dir: &Path) -> Result<Vec<Position>, E> {
 }
 
 /// Every PNG or JPEG a source names: a folder's, or those matching a `*` pattern in the file name
-/// (`'captures/*.png'`), in name order.
+/// (`'captures/*.png'`), in the order of their numbers ([`rig::frame_order`]).
 fn image_files(source: &Path) -> Result<Vec<PathBuf>, E> {
     let name = source.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     let (dir, pattern) = if name.contains('*') {
@@ -162,13 +163,15 @@ fn image_files(source: &Path) -> Result<Vec<PathBuf>, E> {
     } else {
         (source.to_path_buf(), None)
     };
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+    let files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .map_err(|e| E::File(rig::Error::io(&dir, e)))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| rig::image::is_image_file(p))
         .filter(|p| pattern.as_deref().is_none_or(|pat| wildcard(pat, &p.file_name().unwrap().to_string_lossy())))
         .collect();
-    files.sort();
+    // By number, never as text (`shot_2` before `shot_10`); a sweep may skip an image deleted as
+    // blurred, so gaps are not refused here.
+    let files = rig::frame_order::order(files).files;
     if files.is_empty() {
         return Err(E::NoImages { path: source.to_path_buf() });
     }

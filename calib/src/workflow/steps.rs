@@ -245,8 +245,9 @@ pub fn projector(
         let images: Vec<(rig::Pattern, rig::image::Image8)> =
             f.position.structured.iter().map(|(p, path)| Ok((*p, turn.read(path)?))).collect::<Result<_, E>>()?;
         let frames: Vec<(rig::Pattern, &rig::image::Image8)> = images.iter().map(|(p, i)| (*p, i)).collect();
+        let names: Vec<String> = f.position.structured.iter().map(|(_, path)| path.display().to_string()).collect();
         let (map, _) = decode_view(&frames, size.0, size.1, &DecodeParams::default())
-            .map_err(|source| E::Decode { image: f.position.lit.clone(), source })?;
+            .map_err(|source| E::Decode { image: f.position.lit.clone(), source: source.name_frames(&names) })?;
         views.push(StereoView {
             object: board.object.clone(),
             camera: f.corners.clone(),
