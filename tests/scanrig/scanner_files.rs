@@ -94,7 +94,7 @@ fn a_fabscan_scan_folder_imports_to_the_native_scans_points() {
         &native,
     ]));
     let fab = native.join("fabscan/sim");
-    let out = ok(&scanrig(&[&"import", &"fabscan", &fab, &"-o", &p("imported")]));
+    let out = ok(&scanrig(&[&"import", &"fabscan", &fab, &"--step-deg", &"60", &"-o", &p("imported")]));
     assert!(out.contains("6 positions × 2 laser(s)"), "{out}");
     // FabScanPi records no laser-off frame: the native scan is processed without its own.
     let mut m = rig::Manifest::read(&native).unwrap();
@@ -122,7 +122,7 @@ fn a_fabscan_scan_folder_imports_to_the_native_scans_points() {
     );
 
     // An existing output, a missing frame, a config of another camera: refused, nothing written.
-    let o = scanrig(&[&"import", &"fabscan", &fab, &"-o", &p("imported")]);
+    let o = scanrig(&[&"import", &"fabscan", &fab, &"--step-deg", &"60", &"-o", &p("imported")]);
     assert!(String::from_utf8_lossy(&o.stderr).contains("exists"), "{}", String::from_utf8_lossy(&o.stderr));
     let broken = p("broken/sim");
     std::fs::create_dir_all(broken.join("raw_laser_raw")).unwrap();
@@ -133,7 +133,7 @@ fn a_fabscan_scan_folder_imports_to_the_native_scans_points() {
         }
     }
     let config = native.join("fabscan/config.json");
-    let o = scanrig(&[&"import", &"fabscan", &broken, &"--config", &config, &"-o", &p("x")]);
+    let o = scanrig(&[&"import", &"fabscan", &broken, &"--config", &config, &"--step-deg", &"60", &"-o", &p("x")]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("frame 005 is missing"), "{err}");
     let mut other: Value = serde_json::from_str(&std::fs::read_to_string(&config).unwrap()).unwrap();
@@ -141,7 +141,8 @@ fn a_fabscan_scan_folder_imports_to_the_native_scans_points() {
     other["calibration"]["camera_matrix"][0][2] = Value::from(240.0);
     other["calibration"]["camera_matrix"][1][2] = Value::from(320.0);
     std::fs::write(p("other.json"), other.to_string()).unwrap();
-    let o = scanrig(&[&"import", &"fabscan", &fab, &"--config", &p("other.json"), &"-o", &p("x")]);
+    let o =
+        scanrig(&[&"import", &"fabscan", &fab, &"--config", &p("other.json"), &"--step-deg", &"60", &"-o", &p("x")]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("camera.resolution"), "{err}");
     assert!(!p("x").exists() && !p("x.partial").exists(), "a refused import left files");

@@ -6,8 +6,9 @@
 //! - [`signal`]: colour frames by the laser's colour (red minus the larger of green and blue for a red
 //!   laser), the laser-off frame subtracted where there is one, the background estimated from the frame
 //!   where there is none;
-//! - [`window`]: each row searched only where the laser's plane meets the working volume, so the
-//!   line on the scanner's back wall, the table or the floor is never a candidate;
+//! - [`window`]: each row searched only where the laser's plane meets the working volume, on the
+//!   camera's side of the axis, so the line on the scanner's back wall, the table or the floor, and
+//!   light in the half of the plane no object's line can reach, is never a candidate;
 //! - per row every peak is a candidate; candidates too wide for a laser line (a lit patch, a
 //!   highlight) are rejected; a saturated line's centre is the middle of its clipped top (flat-top lines
 //!   and blooming); where several candidates remain the one continuing the neighbouring rows' line is
@@ -26,7 +27,7 @@ use rig::image::Image8;
 use rig::math::Real;
 use serde::Serialize;
 pub use signal::Background;
-pub use window::{RowWindows, working_volume_windows};
+pub use window::{RowWindows, lit_side_windows, working_volume_windows};
 
 /// How the line's centre is found in a row.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -60,6 +61,10 @@ pub struct LaserParams {
     pub continuity_px: f64,
     /// The working volume grown by this much (mm) when windows are computed from it.
     pub volume_margin_mm: f64,
+    /// How far past the turntable axis, away from the camera, the line is still searched (mm): the
+    /// plane's far half holds no line of an object over the platter's centre ([`lit_side_windows`]);
+    /// this much of it is kept for hollows and objects a little off centre.
+    pub past_axis_mm: f64,
 }
 
 impl Default for LaserParams {
@@ -74,6 +79,7 @@ impl Default for LaserParams {
             background_px: 16,
             continuity_px: 2.0,
             volume_margin_mm: 5.0,
+            past_axis_mm: 10.0,
         }
     }
 }

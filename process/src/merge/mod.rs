@@ -2,6 +2,8 @@
 //! and background cropped away, and the views merged into one cloud that remembers where each point
 //! came from.
 
+pub mod object_top;
+
 use rig::math::{Isometry3, Real, Vector3};
 use rig::{PointCloud, RangeGrid, SparseView};
 use serde::Serialize;

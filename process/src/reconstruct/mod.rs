@@ -14,4 +14,5 @@ pub mod marching_cubes;
 pub use crate::mesh_distance;
 pub mod prune;
 pub mod self_intersect;
+pub mod top_cut;
 pub mod trim;
