@@ -71,6 +71,8 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let positions = calib::workflow::load(&source, params.orientation, params.projector_size, |done, total| {
         progress.update("reading images", done, total)
     })?;
+    // The rig file is read and rewritten on purpose: each step adds to the rig already there.
+    rig::run_files::updates(&args.out);
     let base = [args.rig.clone().unwrap_or_default(), args.out.clone(), source.join("rig.toml")]
         .into_iter()
         .find(|p| p.is_file());
@@ -130,11 +132,13 @@ fn report_path(out: &Path) -> PathBuf {
 /// `scanrig calibrate import camera.yml -o rig.toml`: an OpenCV YAML camera into a rig file.
 fn import(args: &CalibrateArgs, source: &Path) -> Result<()> {
     let camera = rig::opencv_yaml::read_camera(source)?;
+    rig::run_files::updates(&args.out);
     let mut rig = match [args.rig.clone().unwrap_or_default(), args.out.clone()].into_iter().find(|p| p.is_file()) {
         Some(p) => Rig::read(&p)?,
         None => camera_only("imported camera", camera),
     };
     rig.camera = camera;
+    rig.validate().map_err(|p| anyhow::anyhow!("{}: {p}", source.display()))?;
     rig.write(&args.out).with_context(|| format!("writing {}", args.out.display()))?;
     println!(
         "{}: camera {}x{} from {} (fx {:.3}, fy {:.3}, cx {:.3}, cy {:.3})",

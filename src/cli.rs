@@ -123,14 +123,20 @@ pub enum ImportCommand {
     },
     /// FabScanPi's config.json (camera, image rotate/flip, laser planes and colour, platform pose,
     /// turntable radius and height as the working volume) into a rig file; or a FabScanPi scan folder
-    /// (its raw_laser_raw frames, kept with keep_raw_images) and its config into a scan folder whose
-    /// frames are those files, unaltered, each at its turntable angle.
+    /// (its raw_laser_raw or laser_raw frames, kept with keep_raw_images, or `<id>_NNN.jpg` frames
+    /// directly in the folder, counted from 000) and its config into a scan folder whose frames are
+    /// those files, unaltered, each at its turntable angle (--step-deg).
     Fabscan {
         /// A config.json (writes a rig), or a scan folder `<id>/` (writes a scan folder).
         input: PathBuf,
         /// The scanner's config.json, for a scan folder (default: config.json in it or beside it).
         #[arg(long)]
         config: Option<PathBuf>,
+        /// For a scan folder: the turntable step between its positions, degrees (FabScanPi's config does
+        /// not record the scan's resolution; 3.6 for 100 positions a turn). Required, never guessed:
+        /// frame k stands at k times this.
+        #[arg(long, value_name = "DEG")]
+        step_deg: Option<f64>,
         /// The rig file or scan folder to write (a scan folder must not exist yet).
         #[arg(long, short)]
         out: PathBuf,
@@ -195,7 +201,8 @@ pub struct ScanArgs {
     #[arg(long)]
     pub port: Option<String>,
     /// The camera: `sim` (the simulator, watching the virtual turntable; the default), a V4L2 device
-    /// such as `/dev/video0` (feature `v4l2`), or a folder of recorded frames to replay in name order.
+    /// such as `/dev/video0` (feature `v4l2`), or a folder of recorded frames to replay in the order
+    /// of their numbers (img1, img2, …, img10; a duplicate, gap or extra image is refused).
     #[arg(long)]
     pub camera: Option<PathBuf>,
     /// Show the patterns in a fullscreen window on this monitor (feature `projector-window`); without
@@ -527,7 +534,8 @@ pub enum FrameOrder {
 
 #[derive(clap::Args, Debug)]
 pub struct DecodeArgs {
-    /// Folder of 8-bit images (PNG or JPEG, grey or colour), taken in name order.
+    /// Folder of 8-bit images (PNG or JPEG, grey or colour), taken in the order of their numbers
+    /// (img1, img2, …, img10), never as text; a duplicate, gap or extra image is refused.
     pub dir: PathBuf,
     /// Projector resolution WxH (default: the rig's projector, with --rig).
     #[arg(long, value_parser = parse_size)]
@@ -543,8 +551,14 @@ pub struct DecodeArgs {
     /// The decoder's thresholds.
     #[command(flatten)]
     pub decode: DecodeOpts,
+    /// Write the map even where the frames contradict themselves (a pattern and its inverse not
+    /// complementary, white and black swapped, a dark frame, a mirrored or discontinuous code), with
+    /// a warning, instead of failing.
+    #[arg(long)]
+    pub force: bool,
     /// Output: `.npy`, a NumPy (H, W, 3) array of projector u, v and confidence (a PNG preview is
-    /// written beside it); `.ply` (with --rig), the triangulated points, millimetres, camera frame.
+    /// written beside it as NAME.preview.png); `.ply` (with --rig), the triangulated points,
+    /// millimetres, camera frame. Never inside DIR.
     #[arg(long, short, default_value = "correspondence.npy")]
     pub out: PathBuf,
     /// Print the report as JSON.

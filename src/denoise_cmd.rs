@@ -36,6 +36,9 @@ pub fn run(args: &DenoiseArgs) -> Result<()> {
             );
         }
     }
+    let inputs: Vec<(&str, &std::path::Path)> = args.inputs.iter().map(|p| ("INPUT", p.as_path())).collect();
+    let outs: Vec<(&str, Option<&std::path::Path>)> = outputs.iter().map(|p| ("--out", Some(p.as_path()))).collect();
+    crate::outputs::plan(&inputs, &outs)?;
     if !single {
         std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     }

@@ -7,8 +7,11 @@ use std::io::Write;
 
 pub fn run(args: &FuseArgs) -> Result<()> {
     let params = args.fuse.params()?;
-    crate::outputs::distinct(&[("--out", Some(&args.out)), ("--outliers", args.outliers.as_deref())])?;
-    let mut cloud = rig::read_cloud(&args.input)?;
+    crate::outputs::plan(
+        &[("INPUT", &args.input)],
+        &[("--out", Some(&args.out)), ("--outliers", args.outliers.as_deref())],
+    )?;
+    let mut cloud = crate::inputs::read_cloud(&args.input)?;
     let opts = crate::outputs::write_options_like(&args.input)?;
     // Fusion takes its input: kept here only when the outliers are to be written from it.
     let input = if args.outliers.is_some() { cloud.clone() } else { std::mem::take(&mut cloud) };

@@ -9,6 +9,7 @@ mod demo;
 mod denoise_cmd;
 mod fuse_cmd;
 mod info;
+mod inputs;
 mod outputs;
 mod pages;
 mod process_cmd;
@@ -38,8 +39,10 @@ fn main() -> ExitCode {
         let at = info.location().map(|l| format!(" ({}:{})", l.file(), l.line())).unwrap_or_default();
         eprintln!("error: internal error in scanrig{at}: {what}. This is a bug; please report it with the command.");
     }));
-    let args = cli::Args::parse();
+    let args = cli::Args::parse_from(negative_values_attached(std::env::args_os()));
     progress::set_quiet(args.quiet);
+    // Every command is one run: what it reads is never replaced by what it writes (rig::run_files).
+    let _run = rig::run_files::Run::open();
     let result = match args.command {
         cli::Command::Info(a) => info::run(&a),
         cli::Command::Convert(a) => convert::run(&a),
@@ -94,12 +97,49 @@ fn message(e: &anyhow::Error) -> String {
         .collect()
 }
 
+/// `--k -1` as `--k=-1`: clap takes a lone `-1` or `-inf` for an unknown flag and says "unexpected
+/// argument '-1'", naming no option; attached, the value reaches the option's parser or the library's
+/// limits, whose refusal names the option (`--k -1: must be from 6 …`). A value after a flag that
+/// takes none is then refused naming that flag.
+fn negative_values_attached(args: impl IntoIterator<Item = std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    let mut out: Vec<std::ffi::OsString> = Vec::new();
+    for a in args {
+        // A value that starts like a negative number: `-1`, `-.5`, `-inf`, `-NaN`, `-1x768`, `-5,0,0`.
+        let numeric = a.to_str().and_then(|t| t.strip_prefix('-')).is_some_and(|rest| {
+            let lower = rest.to_ascii_lowercase();
+            rest.starts_with(|c: char| c.is_ascii_digit() || c == '.')
+                || lower.starts_with("inf")
+                || lower.starts_with("nan")
+        });
+        let after_option =
+            out.last().and_then(|p| p.to_str()).is_some_and(|p| p.starts_with("--") && p.len() > 2 && !p.contains('='));
+        match out.last_mut() {
+            Some(prev) if numeric && after_option => {
+                prev.push("=");
+                prev.push(&a);
+            }
+            _ => out.push(a),
+        }
+    }
+    out
+}
+
 fn is_broken_pipe(e: &anyhow::Error) -> bool {
     e.chain().any(|c| c.downcast_ref::<std::io::Error>().is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe))
 }
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn negative_numbers_are_attached_to_the_option_before_them() {
+        let args = |v: &[&str]| v.iter().map(std::ffi::OsString::from).collect::<Vec<_>>();
+        let got = super::negative_values_attached(args(&["scanrig", "x", "--k", "-1", "--x", "-inf", "--p", "-1x768"]));
+        assert_eq!(got, args(&["scanrig", "x", "--k=-1", "--x=-inf", "--p=-1x768"]));
+        // Short options, attached values and plain arguments stay as they are.
+        let same = args(&["scanrig", "fuse", "-o", "-1", "--k=-2", "--out", "x", "-"]);
+        assert_eq!(super::negative_values_attached(same.clone()), same);
+    }
+
     #[test]
     fn messages_say_each_cause_once_and_escape_control_characters() {
         let io = std::io::Error::new(std::io::ErrorKind::NotFound, "No such file or directory (os error 2)");

@@ -27,12 +27,47 @@ pub fn distinct(outputs: &[(&str, Option<&Path>)]) -> Result<()> {
     Ok(())
 }
 
+/// [`distinct`], and no output is one of the run's `inputs` (files, or folders whose contents the
+/// run reads) nor inside an input folder — checked before any work starts. The same rules hold again
+/// at every write ([`rig::run_files`]); this says so before minutes of work are spent.
+pub fn plan(inputs: &[(&str, &Path)], outputs: &[(&str, Option<&Path>)]) -> Result<()> {
+    distinct(outputs)?;
+    for (name, out) in outputs.iter().filter_map(|(n, p)| p.map(|p| (*n, p))) {
+        for (what, input) in inputs {
+            if same_file(out, input) {
+                bail!(
+                    "{name} {} is the input {what}: writing it would replace the data it is made from; give another \
+                     file",
+                    out.display()
+                );
+            }
+            let inside = input.is_dir()
+                && input.canonicalize().ok().zip(canonical(out)).is_some_and(|(dir, o)| o.starts_with(dir));
+            if inside {
+                bail!(
+                    "{name} {} is inside the input folder {what} ({}): the run reads that folder, so its results \
+                     go elsewhere",
+                    out.display(),
+                    input.display()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn canonical(p: &Path) -> Option<std::path::PathBuf> {
+    let parent = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    parent.canonicalize().ok().map(|d| d.join(p.file_name().unwrap_or_default()))
+}
+
+/// The same file: one spelling, one canonical path, or one inode (a hard link).
 fn same_file(a: &Path, b: &Path) -> bool {
-    let canon = |p: &Path| {
-        let parent = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        parent.canonicalize().ok().map(|d| d.join(p.file_name().unwrap_or_default()))
-    };
-    a == b || matches!((canon(a), canon(b)), (Some(x), Some(y)) if x == y)
+    use std::os::unix::fs::MetadataExt;
+    let inode = |p: &Path| std::fs::metadata(p).ok().map(|m| (m.dev(), m.ino()));
+    a == b
+        || matches!((canonical(a), canonical(b)), (Some(x), Some(y)) if x == y)
+        || matches!((inode(a), inode(b)), (Some(x), Some(y)) if x == y)
 }
 
 /// Write options that keep the input's units (a PLY `comment units …`).

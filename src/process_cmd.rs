@@ -58,6 +58,27 @@ pub fn run_pipeline(
     Ok((report, page))
 }
 
+/// The scan folder is read, the processed folder written: refuses a processed folder that is the scan
+/// folder, holds it, or lies among its frames, then declares both to the run (`rig::run_files`), so
+/// no stage can write over a capture.
+pub fn guard_folders(scan: &Path, out: &Path) -> Result<()> {
+    let scan_c = scan.canonicalize().with_context(|| format!("reading the scan folder {}", scan.display()))?;
+    // The nearest folder that exists, made canonical, with the rest of the path after it.
+    let out_c = out.ancestors().find_map(|a| Some(a.canonicalize().ok()?.join(out.strip_prefix(a).ok()?)));
+    let among_frames = out_c.as_ref().is_some_and(|o| o.starts_with(scan_c.join("frames")));
+    if out_c.as_ref().is_some_and(|o| scan_c.starts_with(o)) || among_frames {
+        anyhow::bail!(
+            "--out {} would mix the results with the captures of {}: give a folder of its own (the default is {})",
+            out.display(),
+            scan.display(),
+            scan.join("processed").display()
+        );
+    }
+    rig::run_files::input_folder(scan);
+    rig::run_files::workspace(out)?;
+    Ok(())
+}
+
 /// "reused" or "ran: why".
 fn status<T>(s: &Section<T>) -> String {
     match &s.reason {
@@ -68,7 +89,11 @@ fn status<T>(s: &Section<T>) -> String {
 
 pub fn run(args: &ProcessArgs) -> Result<()> {
     let out = args.out.clone().unwrap_or_else(|| args.scan.join("processed"));
-    let (report, page) = run_pipeline(&args.scan, &out, &params(args)?)?;
+    // Every option first (the library's limits), then the folders: a refused run creates nothing.
+    let params = params(args)?;
+    params.validate()?;
+    guard_folders(&args.scan, &out)?;
+    let (report, page) = run_pipeline(&args.scan, &out, &params)?;
     let mut o = std::io::stdout().lock();
     if args.json {
         serde_json::to_writer_pretty(&mut o, &report)?;

@@ -9,8 +9,8 @@ use std::io::Write;
 
 pub fn run(args: &ReconstructArgs) -> Result<()> {
     let params = args.reconstruct.params()?;
-    crate::outputs::distinct(&[("--out", Some(&args.out)), ("input", Some(&args.input))])?;
-    let mut cloud = rig::read_cloud(&args.input)?;
+    crate::outputs::plan(&[("INPUT", &args.input)], &[("--out", Some(&args.out))])?;
+    let mut cloud = crate::inputs::read_cloud(&args.input)?;
     if args.close {
         let (closed, r) = process::reconstruct::closing::close_openings(&cloud, &Default::default());
         for (what, cap) in [("base", r.bottom), ("top", r.top)] {

@@ -10,8 +10,11 @@ use std::io::Write;
 
 pub fn run(args: &RemeshArgs) -> Result<()> {
     let mut params = args.remesh.params()?;
-    crate::outputs::distinct(&[("--out", Some(&args.out)), ("--lines", args.lines.as_deref())])?;
-    let mesh = rig::read_mesh(&args.input)
+    let mut inputs = vec![("INPUT", args.input.as_path())];
+    inputs.extend(args.constraints.as_deref().map(|p| ("--constraints", p)));
+    inputs.extend(args.conductivity.as_deref().map(|p| ("--conductivity", p)));
+    crate::outputs::plan(&inputs, &[("--out", Some(&args.out)), ("--lines", args.lines.as_deref())])?;
+    let mesh = crate::inputs::read_mesh(&args.input)
         .map_err(|e| match e.to_string().contains("element `face`") {
             true => anyhow::anyhow!("{e}: a point cloud? `scanrig reconstruct` makes a mesh of one"),
             false => e.into(),

@@ -134,6 +134,12 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
         Some(m) => open_window(m, &rig)?,
         None => Box::new(SimProjector(shown.clone())),
     };
+    // The scan folder is the run's own (a resumed scan reads and rewrites its manifest); a replayed
+    // camera's folder is only read.
+    rig::run_files::workspace(&args.out)?;
+    if let Some(dir) = args.camera.as_deref().filter(|d| d.is_dir()) {
+        rig::run_files::input_folder(dir);
+    }
     let mut camera: Box<dyn Camera> = match &args.camera {
         Some(dev) if dev.starts_with("/dev/video") => open_v4l2(&dev.display().to_string(), &rig)?,
         Some(dir) if dir.as_os_str() != "sim" => {

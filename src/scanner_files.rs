@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 /// Reads a text file, naming it on failure.
 fn read_text(path: &Path) -> Result<String> {
-    std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))
+    Ok(rig::input::read_regular_to_string(path, None)?)
 }
 
 pub fn import(command: &ImportCommand) -> Result<()> {
@@ -17,17 +17,25 @@ pub fn import(command: &ImportCommand) -> Result<()> {
                 .with_context(|| format!("importing Horus settings {}", settings.display()))?;
             (rig, settings.clone(), out)
         }
-        ImportCommand::Fabscan { input, config, out } if input.is_dir() && has_frames(input) => {
-            return import_fabscan_scan(input, config.as_deref(), out);
+        ImportCommand::Fabscan { input, config, step_deg, out } if input.is_dir() && has_frames(input) => {
+            return import_fabscan_scan(input, config.as_deref(), *step_deg, out);
         }
-        ImportCommand::Fabscan { input, config: _, out } => {
+        ImportCommand::Fabscan { input, config: _, step_deg, out } => {
+            if step_deg.is_some() {
+                bail!(
+                    "--step-deg is for a scan folder, and {} holds no FabScanPi frames (raw_laser_raw/, laser_raw/ or \
+                     <id>_NNN.jpg files)",
+                    input.display()
+                );
+            }
             let file: PathBuf = if input.is_dir() { input.join("config.json") } else { input.clone() };
             if !file.is_file() {
                 bail!(
                     "{} is not a FabScanPi config.json{}",
                     file.display(),
                     if input.is_dir() {
-                        " (the folder holds neither a config.json nor raw_laser_raw frames)"
+                        " (the folder holds neither a config.json nor FabScanPi frames: raw_laser_raw/, laser_raw/ or \
+                         <id>_NNN.jpg files)"
                     } else {
                         ""
                     }
@@ -55,12 +63,21 @@ pub fn import(command: &ImportCommand) -> Result<()> {
 }
 
 fn has_frames(dir: &Path) -> bool {
-    rig::fabscan_scan::FRAME_FOLDERS.iter().any(|f| dir.join(f).is_dir())
+    rig::fabscan_scan::frame_folder(dir).is_some()
 }
 
 /// A FabScanPi scan folder and its config into a scanrig scan folder: built beside `out` and renamed
 /// into place when whole, so a refused or interrupted import leaves nothing behind.
-fn import_fabscan_scan(dir: &Path, config: Option<&Path>, out: &Path) -> Result<()> {
+fn import_fabscan_scan(dir: &Path, config: Option<&Path>, step_deg: Option<f64>, out: &Path) -> Result<()> {
+    // FabScanPi's config does not record the scan's resolution: the step is the user's to say, since
+    // any guess from the frame count turns a stopped scan into a whole turn.
+    let Some(step_deg) = step_deg else {
+        bail!(
+            "{}: give the turntable step of the scan with --step-deg (FabScanPi's config.json does not record the \
+             scan's resolution; 3.6 for 100 positions a turn): frame k stands at k × step",
+            dir.display()
+        );
+    };
     let config = match config {
         Some(c) => c.to_path_buf(),
         None => [dir.join("config.json"), dir.join("../config.json")].into_iter().find(|p| p.is_file()).with_context(
@@ -73,6 +90,15 @@ fn import_fabscan_scan(dir: &Path, config: Option<&Path>, out: &Path) -> Result<
     let rig = rig::scanner_calibration::rig_from_fabscan(&read_text(&config)?)
         .with_context(|| format!("importing FabScanPi config {}", config.display()))?;
     let frames = rig::fabscan_scan::find_frames(dir, rig.lasers.len())?;
+    let source = format!("FabScanPi scan {} imported with {}", dir.display(), config.display());
+    // Checked (the step, frames beyond a turn) before anything is written.
+    let (m, notes) = rig::fabscan_scan::manifest(&frames, step_deg, "frames", &source, dir)?;
+    for note in &notes {
+        eprintln!("warning: {note}");
+    }
+    for note in &frames.notes {
+        eprintln!("warning: {note}");
+    }
     // The first frame must be the size the config says its camera captures.
     let first = dir.join(&frames.folder).join(&frames.files[0][0]);
     let img = rig::image::read_image(&first)?;
@@ -89,40 +115,39 @@ fn import_fabscan_scan(dir: &Path, config: Option<&Path>, out: &Path) -> Result<
             expect.1
         );
     }
-    let partial = out.with_extension("partial");
-    let _ = std::fs::remove_dir_all(&partial);
-    let result = (|| -> Result<rig::Manifest> {
+    // Built in a folder of a name no user owns (`.NAME.scanrig-tmp…`, made for this run), removed with
+    // its contents if the import fails: never a folder the run did not create.
+    let staging = rig::run_files::temp_folder_beside(out)?;
+    let partial = staging.path().to_path_buf();
+    let result = (|| -> Result<()> {
         let frames_dir = "frames";
         std::fs::create_dir_all(partial.join(frames_dir)).with_context(|| format!("creating {}", partial.display()))?;
-        for name in frames.files.iter().flatten() {
+        // The frames the manifest names (a position that repeats another is not among them).
+        let names = m.views.iter().flat_map(|v| &v.frames).filter_map(|f| f.file.strip_prefix("frames/"));
+        for name in names {
             let (from, to) = (dir.join(&frames.folder).join(name), partial.join(frames_dir).join(name));
+            // Only regular files: a FIFO or a device in place of a frame is refused, not linked or waited on.
+            rig::input::open_regular(&from)?;
             // The frames as they are: linked where the file system allows, else copied byte for byte.
             if std::fs::hard_link(&from, &to).is_err() {
                 std::fs::copy(&from, &to).with_context(|| format!("copying {}", from.display()))?;
             }
         }
-        let source = format!("FabScanPi scan {} imported with {}", dir.display(), config.display());
-        let m = rig::fabscan_scan::manifest(&frames, frames_dir, &source);
         rig.write(&partial.join(&m.rig))?;
         m.write(&partial)?;
-        Ok(m)
+        Ok(())
     })();
-    let m = match result {
-        Ok(m) => m,
-        Err(e) => {
-            let _ = std::fs::remove_dir_all(&partial);
-            return Err(e);
-        }
-    };
+    result?;
     std::fs::rename(&partial, out).with_context(|| format!("moving {} to {}", partial.display(), out.display()))?;
+    // Renamed away: nothing left for the staging folder's cleanup to remove.
+    let _ = staging.keep();
     println!(
-        "{}: {} positions × {} laser(s) of FabScanPi scan {} ({}° a step; FabScanPi's +angle is scanrig's −angle), \
-         rig from {}",
+        "{}: {} positions × {} laser(s) of FabScanPi scan {} ({step_deg}° a step; FabScanPi's +angle is scanrig's \
+         −angle), rig from {}",
         out.display(),
         m.views.len(),
         rig.lasers.len(),
         frames.id,
-        360.0 / m.views.len() as f64,
         config.display()
     );
     Ok(())

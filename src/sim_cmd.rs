@@ -78,6 +78,8 @@ pub fn run(args: &SimArgs) -> Result<()> {
         cfg.rig.camera.height,
         args.out.display()
     );
+    // The scan folder is the run's own: a second run resumes it, reading and rewriting its manifest.
+    rig::run_files::workspace(&args.out)?;
     let mut progress = crate::progress::Progress::new();
     let report = sim::simulate_scan(&cfg, &scene, Some(&object), opts, &args.out, |done, total| {
         progress.update("simulate", done, total)
@@ -91,10 +93,11 @@ pub fn run(args: &SimArgs) -> Result<()> {
         rig::fabscan_scan::write_layout(&args.out, &dir, "sim", turn)
             .with_context(|| format!("writing {} in FabScanPi's layout", dir.display()))?;
         eprintln!(
-            "FabScanPi layout: {} and {} (import with `scanrig import fabscan {} -o SCAN`)",
+            "FabScanPi layout: {} and {} (import with `scanrig import fabscan {} --step-deg {} -o SCAN`)",
             dir.join("config.json").display(),
             dir.join("sim").display(),
-            dir.join("sim").display()
+            dir.join("sim").display(),
+            360.0 / report.views as f64
         );
     }
     Ok(())
@@ -174,5 +177,6 @@ pub fn object_on_platter(
     offset: rig::Vector3,
 ) -> Result<(rig::TriMesh, Albedo)> {
     let up = if up == Up::Z { UpAxis::Z } else { UpAxis::Y };
+    sim::validate_placement(cfg, size, offset)?;
     Ok(sim::object_on_platter(cfg, mesh, size, up, offset)?)
 }

@@ -25,28 +25,23 @@ pub struct DecodeOpts {
     #[arg(long, default_value_t = DecodeParams::default().bit_threshold)]
     pub bit_threshold: u8,
     /// Without phase-shift frames, refine each Gray-code column to sub-pixel by a quadratic fitted to its
-    /// decoded neighbours within this many camera pixels (at least 2); 0 keeps whole projector pixels
+    /// decoded neighbours within this many camera pixels (2 to 16); 0 keeps whole projector pixels
     /// (OpenCV's GrayCodePattern result).
     #[arg(long, value_name = "PIXELS", default_value_t = DecodeParams::default().gray_fit_radius)]
     pub gray_fit_radius: usize,
 }
 
 impl DecodeOpts {
+    /// The library's parameters, checked by the library ([`DecodeParams::validate`]).
     pub fn params(&self) -> Result<DecodeParams> {
-        if !(self.shadow_threshold >= 0.0 && self.shadow_threshold <= 255.0) {
-            bail!("--shadow-threshold must be a grey level from 0 to 255, got {}", self.shadow_threshold);
-        }
-        if self.gray_fit_radius == 1 {
-            bail!(
-                "--gray-fit-radius 1 holds 9 neighbours, too few for the quadratic's 6 terms: give 0 (off) or 2 and up"
-            );
-        }
-        Ok(DecodeParams {
+        let p = DecodeParams {
             shadow_threshold: self.shadow_threshold,
             bit_threshold: self.bit_threshold,
             gray_fit_radius: self.gray_fit_radius,
             ..Default::default()
-        })
+        };
+        p.validate()?;
+        Ok(p)
     }
 }
 
@@ -108,9 +103,7 @@ fn default_patch() -> usize {
     }
 }
 
-/// The largest neighbourhood or patch side accepted: the filter's work grows with its square, and past
-/// this a range grid's surface is no longer locally flat at any scanner's resolution.
-const MAX_WINDOW: usize = 31;
+use process::limits::MAX_WINDOW;
 
 fn half(size: usize, what: &str) -> Result<usize> {
     if size < 3 || size.is_multiple_of(2) {
@@ -124,11 +117,8 @@ fn half(size: usize, what: &str) -> Result<usize> {
 
 impl DenoiseOpts {
     pub fn params(&self) -> Result<DenoiseStage> {
-        if !(1..=100).contains(&self.iterations) {
-            bail!("--iterations must be from 1 to 100, got {}", self.iterations);
-        }
         let d = DenoiseStage::default();
-        Ok(DenoiseStage {
+        let p = DenoiseStage {
             filter: DenoiseParams {
                 window: half(self.window, "window")?,
                 similarity: match self.filter {
@@ -146,7 +136,9 @@ impl DenoiseOpts {
                 ..d.filter
             },
             ..d
-        })
+        };
+        p.validate()?;
+        Ok(p)
     }
 }
 
@@ -171,11 +163,10 @@ pub struct FuseOpts {
 
 impl FuseOpts {
     pub fn params(&self) -> Result<FuseParams> {
-        if self.k < 6 {
-            bail!("--k must be at least 6 (a kernel fits a plane to its neighbours), got {}", self.k);
-        }
         let d = FuseParams::default();
-        Ok(FuseParams { mean_shift: process::mean_shift::MeanShiftParams { k: self.k, ..d.mean_shift }, ..d })
+        let p = FuseParams { mean_shift: process::mean_shift::MeanShiftParams { k: self.k, ..d.mean_shift }, ..d };
+        p.validate()?;
+        Ok(p)
     }
 }
 
@@ -238,33 +229,27 @@ pub enum BaseArg {
 impl ReconstructOpts {
     /// The base and trim, and whether the base was asked for by name (it needs a known platter).
     pub fn finish(&self) -> Result<(FinishParams, bool)> {
-        if let Some(t) = self.trim
-            && !(t > 0.0 && t.is_finite())
-        {
-            bail!("--trim must be a positive distance (mm), got {t}");
-        }
         let base = match self.base {
             None => FinishParams::default().base,
             Some(BaseArg::Flat) => Base::Flat,
             Some(BaseArg::Open) => Base::Open,
             Some(BaseArg::Closed) => Base::Closed,
         };
-        Ok((FinishParams { base, trim: self.trim, trim_fill: self.trim_fill }, self.base.is_some()))
+        let p = FinishParams { base, trim: self.trim, trim_fill: self.trim_fill };
+        p.validate()?;
+        Ok((p, self.base.is_some()))
     }
 
     pub fn params(&self) -> Result<ReconstructParams> {
+        // GB → bytes: a NaN, negative or infinite budget becomes 0 (refused by the library), and a
+        // huge one saturates.
         if !(self.memory_budget > 0.0 && self.memory_budget.is_finite()) {
-            bail!("--memory-budget must be a positive number of GB, got {}", self.memory_budget);
+            bail!("--memory-budget {}: must be a positive number of GB", self.memory_budget);
         }
-        Ok(match self.method {
+        let p = match self.method {
             MethodArg::Fft => {
                 if self.error.is_some() {
                     bail!("--error steers AdFFT's octree; the global method (--method fft) has none");
-                }
-                if let Some(s) = self.smoothing_cells
-                    && !(s > 0.0 && s <= 64.0)
-                {
-                    bail!("--smoothing-cells must be a positive number of cells up to 64, got {s}");
                 }
                 let d = FftParams::default();
                 ReconstructParams::Fft(FftParams {
@@ -278,11 +263,6 @@ impl ReconstructOpts {
                 if self.smoothing_cells.is_some() {
                     bail!("--smoothing-cells is the global method's (--method fft); AdFFT smooths per octree cell");
                 }
-                if let Some(e) = self.error
-                    && !(e > 0.0 && e.is_finite())
-                {
-                    bail!("--error must be a positive distance, got {e}");
-                }
                 let d = AdFftParams::default();
                 ReconstructParams::Adfft(AdFftParams {
                     depth: self.depth.unwrap_or(d.depth),
@@ -291,7 +271,9 @@ impl ReconstructOpts {
                     ..d
                 })
             }
-        })
+        };
+        p.validate()?;
+        Ok(p)
     }
 }
 
@@ -318,18 +300,15 @@ pub struct RemeshOpts {
 
 impl RemeshOpts {
     pub fn params(&self) -> Result<RemeshParams> {
-        if let Some(s) = self.spacing
-            && !(s > 0.0 && s.is_finite())
-        {
-            bail!("--spacing must be a positive distance, got {s}");
-        }
-        Ok(RemeshParams {
+        let p = RemeshParams {
             spacing: self.spacing,
             feature_angle: (!self.no_features).then_some(self.features),
             weight: self.weight,
             split_polygons: !self.keep_polygons,
             ..Default::default()
-        })
+        };
+        p.validate()?;
+        Ok(p)
     }
 }
 
@@ -346,15 +325,9 @@ pub struct CropOpts {
 
 impl CropOpts {
     pub fn params(&self) -> Result<CropParams> {
-        if let Some(r) = self.crop_radius
-            && !(r > 0.0 && r.is_finite())
-        {
-            bail!("--crop-radius must be a positive distance in mm, got {r}");
-        }
-        if !self.crop_min_height.is_finite() {
-            bail!("--crop-min-height must be a finite height in mm, got {}", self.crop_min_height);
-        }
-        Ok(CropParams { radius_mm: self.crop_radius, min_height_mm: self.crop_min_height, ..Default::default() })
+        let p = CropParams { radius_mm: self.crop_radius, min_height_mm: self.crop_min_height, ..Default::default() };
+        p.validate()?;
+        Ok(p)
     }
 }
 
@@ -367,23 +340,20 @@ pub struct RegisterOpts {
     /// Largest movement registration may give a view, mm: beyond it the correction is refused.
     #[arg(long, default_value_t = Tolerance::default().shift_mm, allow_hyphen_values = true)]
     pub max_correction_mm: f64,
-    /// Go on past results that cannot be right (a refused registration correction), with a warning.
+    /// Go on past results that cannot be right (frames that contradict themselves when decoding, a
+    /// refused registration correction), with a warning.
     #[arg(long)]
     pub force: bool,
 }
 
 impl RegisterOpts {
     pub fn params(&self) -> Result<RegisterParams> {
-        if !(self.max_correction_deg > 0.0 && self.max_correction_deg <= 180.0) {
-            bail!("--max-correction-deg must be an angle in (0, 180] degrees, got {}", self.max_correction_deg);
-        }
-        if !(self.max_correction_mm > 0.0 && self.max_correction_mm.is_finite()) {
-            bail!("--max-correction-mm must be a positive distance in mm, got {}", self.max_correction_mm);
-        }
-        Ok(RegisterParams {
+        let p = RegisterParams {
             tolerance: Tolerance { rotation_deg: self.max_correction_deg, shift_mm: self.max_correction_mm },
             ..Default::default()
-        })
+        };
+        p.validate()?;
+        Ok(p)
     }
 }
 

@@ -76,6 +76,9 @@ pub enum SessionError {
     /// Writing frames, the rig or the manifest.
     #[error(transparent)]
     File(#[from] rig::Error),
+    /// Another run is writing into the folder.
+    #[error(transparent)]
+    Busy(#[from] rig::folder_lock::LockError),
     /// The turntable failed at a view.
     #[error(
         "view {view} ({angle_deg}°): {error}; {complete} of {total} views are complete on disk (--resume continues)"
@@ -140,6 +143,8 @@ pub fn run(
     }
     let fresh = Manifest::fresh(plan.method, "scanrig scan", plan.seed, &plan.angles, &plan.patterns);
     std::fs::create_dir_all(out).map_err(|e| rig::Error::io(out, e))?;
+    // Two sessions writing one folder would interleave their frames and manifests.
+    let _lock = rig::folder_lock::Lock::acquire(out)?;
     let mut manifest = if out.join("scan.json").is_file() {
         let old = Manifest::read(out)?;
         if !resume {

@@ -61,6 +61,10 @@ pub mod remesh;
 
 pub mod pipeline;
 
+/// Every stage's parameter limits, and the `validate` each stage calls first.
+pub mod limits;
+pub use limits::ParamError;
+
 pub mod kd_tree;
 pub mod mesh_distance;
 pub mod normals;
@@ -88,6 +92,17 @@ pub enum Error {
         /// Why.
         source: DecodeError,
     },
+    /// A stage left nothing to go on with: which options or inputs did it.
+    #[error("{stage} left nothing: {why}")]
+    LeftNothing {
+        /// The stage.
+        stage: Stage,
+        /// What removed everything, naming the option or input.
+        why: String,
+    },
+    /// A parameter no stage could use, refused before the first stage.
+    #[error(transparent)]
+    Param(#[from] ParamError),
     /// A stage could not run on one view.
     #[error("view {view}: {stage}: {source}")]
     View {

@@ -65,12 +65,6 @@ fn fuse<'py>(
     let d = FuseParams::default();
     let mut params = d;
     if let Some(k) = k {
-        // The command line's check (`scanrig fuse --k`).
-        if k < 6 {
-            return Err(PyValueError::new_err(format!(
-                "k must be at least 6 (a kernel fits a plane to its neighbours), got {k}"
-            )));
-        }
         params.mean_shift.k = k;
     }
     if let Some(s) = kernel_spacing {
@@ -79,6 +73,8 @@ fn fuse<'py>(
         }
         params.mean_shift.kernel_spacing = s;
     }
+    // The library's own limits (process::limits), as a ValueError naming the keyword.
+    params.validate_for(n).map_err(|e| PyValueError::new_err(e.to_string()))?;
     let (fused, r) = interruptible(py, move || {
         let cloud = rig::CloudRef {
             positions: rows.points(),

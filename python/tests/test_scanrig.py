@@ -114,7 +114,7 @@ def test_wrong_arrays_are_python_errors_never_crashes():
         scanrig.reconstruct(good, good, method="poisson")
     with pytest.raises(ValueError, match="faces: face 0 names vertex 10"):
         scanrig.write_mesh("/nonexistent/x.ply", good, np.array([[0, 1, 10]]))
-    with pytest.raises(ValueError, match="k must be at least 6"):
+    with pytest.raises(ValueError, match="--k 3: must be from 6"):
         scanrig.fuse(good, k=3)
     # A strided (Fortran-order) array is accepted, read as its values.
     fortran = np.asfortranarray(np.random.default_rng(1).normal(size=(200, 3)))

@@ -190,6 +190,14 @@ pub enum Error {
         /// What is wrong.
         problem: Problem,
     },
+    /// Writing the file would replace something of the user's (see [`crate::run_files`]).
+    #[error("{}: not written: {why}", path.display())]
+    Refused {
+        /// The file that would have been written.
+        path: PathBuf,
+        /// Why not.
+        why: String,
+    },
     /// The file's name does not say what it holds.
     #[error("{}: unrecognised file type; expected {expected}", path.display())]
     UnknownFileType {
@@ -215,26 +223,30 @@ impl Error {
     }
 }
 
-/// Reads a whole file, naming it in the error.
+/// Reads a whole regular file, naming it in the error: a FIFO, a device or a folder is refused, and no
+/// more than the file's size is read (see [`crate::input::read_regular`]).
+///
+/// While a run is open the file counts as its input ([`crate::run_files`]).
 pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, Error> {
-    std::fs::read(path).map_err(|e| Error::io(path, e))
+    let bytes = crate::input::read_regular(path, None)?;
+    crate::run_files::note_read(path);
+    Ok(bytes)
 }
 
-/// Writes a file atomically: into a temporary sibling, then renamed over the target, so a crash never
-/// leaves a half-written file where a complete one is expected.
+/// Writes a file atomically: into a temporary sibling of a name no user owns, then renamed over the
+/// target, so a crash never leaves a half-written file where a complete one is expected. While a run
+/// is open, a target that is one of its inputs, or inside a folder it reads, is refused
+/// ([`crate::run_files`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Error> {
     use std::io::Write;
-    let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
+    crate::run_files::check_write(path)?;
+    let mut tmp = crate::run_files::temp_sibling(path)?;
     let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
+        tmp.as_file_mut().write_all(bytes)?;
+        tmp.as_file().sync_all()?;
+        tmp.persist(path).map_err(|e| e.error)
     })();
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        Error::io(path, e)
-    })
+    result.map_err(|e| Error::io(path, e))?;
+    crate::run_files::note_written(path);
+    Ok(())
 }

@@ -1,5 +1,5 @@
-//! One `process` at a time per output folder: a lock file holding the owner's process id, created
-//! exclusively. A second run refuses with the owner's id; a lock whose owner is no longer running (a
+//! One scanrig run at a time per output folder (`process` in its processed folder, `scan` in its scan
+//! folder): a lock file holding the owner's process id, created exclusively. A second run refuses with the owner's id; a lock whose owner is no longer running (a
 //! killed run) is stale, and is taken over with a note.
 
 use std::io::Write;
@@ -14,7 +14,7 @@ pub const LOCK_NAME: &str = ".scanrig.lock";
 pub enum LockError {
     /// Another run holds it.
     #[error(
-        "{path}: another scanrig (process {pid}) is processing this folder; wait for it to finish, or \
+        "{path}: another scanrig (process {pid}) is writing into this folder; wait for it to finish, or \
          remove the lock file if that process is not a scanrig run"
     )]
     Busy {

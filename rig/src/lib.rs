@@ -39,6 +39,12 @@ pub use math::{Isometry3, Matrix3, Point2, Point3, Real, Rotation3, UnitVector3,
 pub mod error;
 pub use error::{Error, Location, ParseError, Problem, write_atomic};
 
+/// Which files a run may write: inputs and input folders are never replaced.
+pub mod run_files;
+
+/// One run at a time per output folder.
+pub mod folder_lock;
+
 /// The pinhole camera and lens distortion.
 pub mod camera;
 pub use camera::{Distortion, PinholeCamera};
@@ -57,7 +63,7 @@ pub use turntable::{TurntableAxis, WorkingVolume};
 
 /// The rig description and its TOML file.
 pub mod rig_file;
-pub use rig_file::{Laser, Rig};
+pub use rig_file::{Laser, Rig, RigProblem};
 
 /// Range grids.
 pub mod range_grid;
@@ -75,9 +81,15 @@ pub use point_cloud::{Aabb, CloudRef, PointCloud};
 pub mod mesh;
 pub use mesh::{FaceSizes, PolyMesh, TriMesh};
 
+/// Polygons other tools can read: ear clipping, convexity.
+pub mod polygon;
+
 pub mod e57;
 pub mod glb;
 pub mod image;
+pub mod input;
+mod jpeg_check;
+pub mod limits;
 pub mod npy;
 pub mod obj;
 pub mod off;
@@ -91,6 +103,7 @@ pub mod patterns;
 pub use patterns::{Axis, Pattern, PhaseShift};
 
 pub mod fabscan_scan;
+pub mod frame_order;
 pub mod gray_code_folders;
 pub mod scan_folder;
 pub mod scanner_calibration;
@@ -101,4 +114,6 @@ pub mod memory;
 pub mod mesh_io;
 pub mod topology;
 pub mod union_find;
-pub use mesh_io::{MeshFormat, read_cloud, read_mesh, write_cloud, write_mesh};
+pub use mesh_io::{
+    MeshFormat, Reported, read_cloud, read_cloud_reported, read_mesh, read_mesh_reported, write_cloud, write_mesh,
+};

@@ -40,6 +40,9 @@
 //! hflip = true                   # then mirrored left–right
 //! vflip = false                  # then mirrored top–bottom
 //! ```
+//!
+//! Reading checks every value against the bounds of [`crate::limits`] ([`Rig::validate`]): a value no
+//! scanner has is refused naming the file and the field.
 
 use crate::camera::{Distortion, PinholeCamera};
 use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
@@ -92,7 +95,111 @@ pub struct Rig {
     pub platform_rotation: Option<Matrix3>,
 }
 
+/// What [`Rig::validate`] found wrong: the field as rig.toml names it (`camera.distortion`,
+/// `lasers[1]`, `turntable.platter_radius_mm`) and the problem.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RigProblem {
+    /// The field, as rig.toml names it.
+    pub field: String,
+    /// What is wrong with it.
+    pub message: String,
+}
+
+impl std::fmt::Display for RigProblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "field `{}`: {}", self.field, self.message)
+    }
+}
+
 impl Rig {
+    /// Sets a newly calibrated turntable axis, keeping another scanner's platform pose (kept for
+    /// export) consistent with it: the pose is turned by the smallest rotation that takes its z (the
+    /// old axis) to the new axis, as the rig file requires.
+    pub fn set_turntable(&mut self, axis: TurntableAxis) {
+        if let Some(r) = self.platform_rotation {
+            let z = crate::math::Vector3::from(r.column(2));
+            let turn = crate::math::Rotation3::rotation_between(&z, &axis.direction.into_inner())
+                .unwrap_or_else(crate::math::Rotation3::identity);
+            self.platform_rotation = Some(turn.matrix() * r);
+        }
+        self.turntable = Some(axis);
+    }
+    /// Checks the rig is one a scanner can have, against the bounds of [`crate::limits`]: the camera
+    /// (finite, distortion within real lenses' range and invertible over the image, principal point
+    /// inside the image), the projector's lens and pose, every laser plane in front of the camera (some
+    /// ray through the image meets it at positive depth), the platter in front of the camera, and a
+    /// positive, finite platter radius and working height. Whatever reads or imports a rig calls it.
+    pub fn validate(&self) -> Result<(), RigProblem> {
+        let problem = |field: &str, message: String| RigProblem { field: field.into(), message };
+        let cam = &self.camera;
+        cam.distortion.validate().map_err(|m| problem("camera.distortion", m))?;
+        cam.validate_camera().map_err(|m| problem("camera", m))?;
+        if let Some(p) = &self.projector {
+            p.lens.distortion.validate().map_err(|m| problem("projector.lens.distortion", m))?;
+            p.lens.validate().map_err(|m| problem("projector.lens", m))?;
+            let t = p.from_camera.translation.vector;
+            if !(t.iter().all(|x| x.is_finite()) && p.from_camera.rotation.coords.iter().all(|x| x.is_finite())) {
+                return Err(problem("projector", "its pose must be finite".into()));
+            }
+            if !(p.gamma.is_finite() && p.gamma > 0.0) {
+                return Err(problem("projector.gamma", format!("{} must be positive and finite", p.gamma)));
+            }
+        }
+        // The image's corner rays span the camera's view: a plane meets some ray in front of the camera
+        // exactly when some corner ray has n·r of the sign of d (n·r is linear over the cone they span).
+        let corners: Vec<Vector3> = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0)]
+            .iter()
+            .map(|&(a, b)| {
+                let (u, v) = (a * cam.width as Real - 0.5, b * cam.height as Real - 0.5);
+                Vector3::new((u - cam.cx) / cam.fx, (v - cam.cy) / cam.fy, 1.0)
+            })
+            .collect();
+        for (i, l) in self.lasers.iter().enumerate() {
+            let field = format!("lasers[{i}]");
+            let (n, d) = (l.plane.normal.into_inner(), l.plane.distance);
+            if !(n.iter().all(|x| x.is_finite()) && d.is_finite()) {
+                return Err(problem(&field, "its plane must be finite".into()));
+            }
+            if d == 0.0 {
+                return Err(problem(
+                    &field,
+                    "its plane passes through the camera's centre (distance_mm 0): it cannot triangulate".into(),
+                ));
+            }
+            if !corners.iter().any(|r| n.dot(r) * d.signum() > 0.0) {
+                return Err(problem(
+                    &field,
+                    format!(
+                        "its plane n·X = {d} with n = ({}, {}, {}) lies behind the camera: no ray through the image meets it",
+                        n.x, n.y, n.z
+                    ),
+                ));
+            }
+        }
+        if let Some(t) = &self.turntable {
+            if !(t.point.iter().all(|x| x.is_finite()) && t.direction.iter().all(|x| x.is_finite())) {
+                return Err(problem("turntable", "its axis must be finite".into()));
+            }
+            if t.point.z <= 0.0 {
+                return Err(problem(
+                    "turntable.axis_point_mm",
+                    format!("the platter centre at depth z = {} mm is not in front of the camera", t.point.z),
+                ));
+            }
+        }
+        if let Some(r) = self.platter_radius_mm
+            && !(r.is_finite() && r > 0.0)
+        {
+            return Err(problem("turntable.platter_radius_mm", format!("{r} must be positive and finite")));
+        }
+        if let Some(h) = self.working_height_mm
+            && !(h.is_finite() && h > 0.0)
+        {
+            return Err(problem("turntable.working_height_mm", format!("{h} must be positive and finite")));
+        }
+        Ok(())
+    }
+
     /// The working volume — the cylinder above the platter objects stand in — where the rig knows it:
     /// a turntable and a platter radius (the height is open where the rig does not give it).
     pub fn working_volume(&self) -> Option<crate::turntable::WorkingVolume> {
@@ -205,6 +312,7 @@ fn lens_from(t: &LensToml, field: &str) -> Result<PinholeCamera, ParseError> {
         cy: t.cy_px,
         distortion: Distortion::from_opencv(distortion),
     };
+    cam.distortion.validate().map_err(|m| invalid(&format!("{field}.distortion"), m))?;
     cam.validate().map_err(|m| invalid(field, m))?;
     Ok(cam)
 }
@@ -333,7 +441,7 @@ impl Rig {
                 Some(m)
             }
         };
-        Ok(Rig {
+        let rig = Rig {
             name: t.name,
             camera,
             projector,
@@ -343,7 +451,9 @@ impl Rig {
             working_height_mm,
             image: t.image,
             platform_rotation,
-        })
+        };
+        rig.validate().map_err(|p| invalid(&p.field, p.message))?;
+        Ok(rig)
     }
 
     /// The rig as TOML text, with a comment block stating the conventions.

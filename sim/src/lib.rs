@@ -47,7 +47,9 @@ pub mod truth;
 pub use board::{Board, BoardPoses, simulate_board};
 pub use config::SimConfig;
 pub use geometry::{ViewGeometry, pixel_rays, view_geometry};
-pub use object::{UpAxis, fluted_vase, fluted_vase_tessellated, object_on_platter, place_on_platter};
+pub use object::{
+    UpAxis, fluted_vase, fluted_vase_tessellated, object_on_platter, place_on_platter, validate_placement,
+};
 pub use render::render_frame;
 pub use scan::{ScanOptions, ScanReport, simulate_scan};
 pub use scene::{Albedo, Mount, Part, PartKind, Scene};

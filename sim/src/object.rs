@@ -34,6 +34,41 @@ pub fn place_on_platter(mesh: &PolyMesh, size_mm: Real, up: UpAxis, offset: Vect
     tri
 }
 
+/// The largest object, as a multiple of the platter's diameter: bigger is no object a turntable holds.
+pub const MAX_SIZE_PLATTERS: Real = 4.0;
+
+/// Checks an object's size and offset against the platter before anything is rendered: a size of
+/// 0, NaN or infinity, or an object moved off the platter, would give a scan of nothing.
+pub fn validate_placement(
+    cfg: &crate::SimConfig,
+    size_mm: Real,
+    offset: Vector3,
+) -> Result<(), rig::limits::ParamError> {
+    // A scene without a platter (radius 0) still has a bench: half a metre either way.
+    let platter = if cfg.scene.platter_radius_mm > 0.0 { cfg.scene.platter_radius_mm } else { 500.0 };
+    let largest = MAX_SIZE_PLATTERS * 2.0 * platter;
+    if !(size_mm > 0.0 && size_mm <= largest) {
+        return Err(rig::limits::ParamError {
+            option: "--size",
+            value: size_mm.to_string(),
+            why: format!(
+                "the object's size must be a positive length in mm up to {largest} ({MAX_SIZE_PLATTERS} platter diameters)"
+            ),
+        });
+    }
+    let off_axis = offset.x.hypot(offset.y);
+    if !(offset.iter().all(|c| c.is_finite()) && off_axis <= platter && offset.z.abs() <= platter) {
+        return Err(rig::limits::ParamError {
+            option: "--offset",
+            value: format!("{},{},{}", offset.x, offset.y, offset.z),
+            why: format!(
+                "the object must stay on the platter: at most {platter} mm from its centre, and as far up or down"
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// The object on the platter, as `scanrig sim` and `scan --simulate` place it: a mesh file scaled to
 /// `size_mm` (its PLY vertex colours, where it has them, as the albedo: their luma) or, without a file,
 /// the built-in fluted vase, with the config's constant albedo.

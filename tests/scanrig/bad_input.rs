@@ -137,7 +137,10 @@ fn scans_without_a_complete_view_and_outputs_that_collide_are_refused() {
     assert!(!o.status.success() && stderr(&o).contains("--out and --outliers name the same file"), "{}", stderr(&o));
     // Fusion asked for more neighbours than the cloud has points.
     let o = scanrig(&[&"fuse", &cloud, &"-o", &f, &"--k", &"18446744073709551615"]);
-    assert!(!o.status.success() && stderr(&o).contains("the cloud has 200 points"), "{}", stderr(&o));
+    assert!(!o.status.success() && stderr(&o).contains("--k 18446744073709551615: must be from 6"), "{}", stderr(&o));
+    // A kernel spanning the cloud (issue 37: `--k 43000` on 43,001 points fused it into one point).
+    let o = scanrig(&[&"fuse", &cloud, &"-o", &f, &"--k", &"150"]);
+    assert!(!o.status.success() && stderr(&o).contains("more than half the cloud's 200 points"), "{}", stderr(&o));
     // Filter sizes and passes beyond any use.
     let grid = d.join("g.ply");
     let mut g = rig::RangeGrid::empty(8, 8, rig::Sensor::Center(rig::Point3::origin()));
@@ -158,7 +161,7 @@ fn scans_without_a_complete_view_and_outputs_that_collide_are_refused() {
     for bad in ["-5", "NaN"] {
         let o = scanrig(&[&"process", &scan, &"--crop-radius", &bad]);
         assert!(
-            !o.status.success() && stderr(&o).contains("--crop-radius must be a positive distance"),
+            !o.status.success() && stderr(&o).contains(&format!("--crop-radius {bad}: must be a positive distance")),
             "{}",
             stderr(&o)
         );

@@ -258,7 +258,7 @@ fn decode_reads_simulated_gray_codes_in_opencv_order_back_to_the_truth_projector
         100.0 * exactness
     );
     assert!(lit > 10_000 && coverage >= 0.95 && exactness >= 0.999, "coverage {coverage}, exact {exactness}");
-    assert!(d.path("map.png").is_file(), "the preview is written beside the map");
+    assert!(d.path("map.preview.png").is_file(), "the preview is written beside the map, named apart from it");
     // By default the integers are refined to sub-pixel, never leaving their column.
     let o = scanrig(&[&"decode", &opencv, &"--projector", &"1024x768", &"--out", &out]);
     assert!(o.status.success(), "{}", stderr(&o));

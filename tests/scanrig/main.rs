@@ -5,6 +5,9 @@ mod bad_input;
 mod bases;
 mod cli;
 mod data_files;
+mod fabscan_scan;
+mod frame_sequences;
+mod hostile;
 mod independent_readers;
 mod pages;
 #[cfg(feature = "projector-window")]
@@ -14,3 +17,5 @@ mod run;
 mod scanner_files;
 mod shared_demo;
 mod stages;
+mod trusted_inputs;
+mod user_files;

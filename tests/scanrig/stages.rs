@@ -200,7 +200,7 @@ fn a_folder_being_processed_is_locked() {
     let o = scanrig(&[&"process", &scan, &"--out", &processed]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("another scanrig (process 1) is processing this folder"), "{err}");
+    assert!(err.contains("another scanrig (process 1) is writing into this folder"), "{err}");
     // An owner that is gone: the lock is stale and taken over.
     std::fs::write(&lock, "4294967\n").unwrap();
     let o = ok(scanrig(&[&"process", &scan, &"--out", &processed, &"--until", &"merge"]));

@@ -305,9 +305,39 @@ pub fn calibrate_rig(
     if params.target == Target::Only(Step::Turntable) || (params.target == Target::All && on_turntable >= 3) {
         let height = params.corner_height_mm.unwrap_or(2.0 * square_mm);
         let (axis, poses, r) = steps::turntable(&found, &board, &camera, height)?;
-        rig.turntable = Some(axis);
+        rig.set_turntable(axis);
         sweep_poses = poses;
         report.insert("turntable".into(), r);
+    } else if params.target == Target::All
+        && captured_on_turntable == 0
+        && found.len() >= 3
+        && base.is_some_and(|r| r.turntable.is_some())
+    {
+        // A turntable scanner's image folder (FabScanPi's sweep): no angles were recorded, but the
+        // board turned with the platter. `calibrate turntable` fits the axis to its corners' circles;
+        // `all` must not keep the base rig's axis in silence. Hand-held views fit no circles: then the
+        // axis is kept, and the report says why.
+        let height = params.corner_height_mm.unwrap_or(2.0 * square_mm);
+        let fit = steps::turntable(&found, &board, &camera, height);
+        let spread = fit.as_ref().ok().and_then(|f| f.2["circle_rms_mm"].as_f64());
+        match fit {
+            Ok((axis, poses, r)) if spread.is_some_and(|s| s <= plausible::MAX_SPREAD_MM) => {
+                rig.set_turntable(axis);
+                sweep_poses = poses;
+                report.insert("turntable".into(), r);
+            }
+            other => skipped.push(json!({
+                "step": "turntable",
+                "why": format!(
+                    "the captures record no turntable angles and the board's corners fit no turn about one axis \
+                     ({}): the axis was kept from the base rig",
+                    match other {
+                        Err(e) => e.to_string(),
+                        Ok(_) => format!("{:.2} mm RMS off circles", spread.unwrap_or(f64::NAN)),
+                    }
+                ),
+            })),
+        }
     }
     let has_lasers = found.iter().any(|f| !f.position.lasers.is_empty());
     if params.target == Target::Only(Step::Laser) || (params.target == Target::All && has_lasers) {

@@ -9,13 +9,15 @@
 //! stage, so a resumed or partial run keeps the sections of the stages it did not touch.
 
 pub mod layout;
-pub mod lock;
+/// The output folder's lock (it lives in `rig`: capture sessions lock their folder too).
+pub use rig::folder_lock as lock;
 pub mod memory;
 pub mod parts;
 pub mod records;
 mod report;
 mod run;
 pub mod stages;
+pub mod volume;
 
 pub use report::{GridReport, LaserViewReport, ProcessReport, REPORT_SCHEMA_VERSION, Section, StageRow, ViewReport};
 pub use run::{process_scan, register_processed};

@@ -7,8 +7,9 @@ use super::report::{GridReport, LaserViewReport, ProcessReport, REPORT_SCHEMA_VE
 use super::stages::{self, ViewData, ViewGrid};
 use super::{ProcessParams, Progress, Stage};
 use crate::Error;
-use crate::laser_line::{Background, RowWindows, extract_line, triangulate_line, working_volume_windows};
+use crate::laser_line::{Background, RowWindows, extract_line, lit_side_windows, triangulate_line};
 use crate::placement::CropParams;
+use crate::placement::object_top::TopParams;
 use crate::projector_map::ProjectorMap;
 use crate::register_scan::ViewPose;
 use crate::triangulate::Triangulator;
@@ -252,7 +253,8 @@ fn rig_part(part: &impl std::fmt::Debug) -> Value {
     Value::String(format!("{part:?}"))
 }
 
-/// Where laser `laser`'s line is searched: the image rows of the working volume. A rig that does not
+/// Where laser `laser`'s line is searched: the image rows of the working volume, on the camera's side of
+/// the axis ([`lit_side_windows`]). A rig that does not
 /// know its volume is searched whole, with a warning; a plane that meets the volume nowhere in view is
 /// a rig of another scanner (or a mistyped plane) and fails unless `--force`.
 fn laser_windows(
@@ -269,7 +271,9 @@ fn laser_windows(
         ));
         return Ok(None);
     };
-    let found = working_volume_windows(&rig.camera, &laser.plane, &volume, params.laser.volume_margin_mm);
+    // The camera's side of the axis only: the far half of the plane holds no line of the object.
+    let lp = &params.laser;
+    let found = lit_side_windows(&rig.camera, &laser.plane, &volume, lp.volume_margin_mm, lp.past_axis_mm);
     if found.rows_open() > 0 {
         return Ok(Some(found));
     }
@@ -312,7 +316,8 @@ fn frame_hashes(frames: &[(Pattern, PathBuf)], scan: &Path) -> Result<BTreeMap<S
     frames
         .par_iter()
         .map(|(_, path)| {
-            let bytes = std::fs::read(path).map_err(|e| Error::File(rig::Error::io(path, e)))?;
+            // Only a regular file, read no further than its size: a FIFO or a device is refused, not waited on.
+            let bytes = rig::input::read_regular(path, None).map_err(Error::File)?;
             let name = path.strip_prefix(scan).unwrap_or(path).display().to_string();
             Ok((name, Hash::of(&bytes)))
         })
@@ -349,6 +354,8 @@ pub fn process_scan(
     params: &ProcessParams,
     mut progress: impl Progress,
 ) -> Result<ProcessReport, Error> {
+    // Every stage's options before any work: a late stage's bad option must not cost the early ones.
+    params.validate()?;
     let start = Instant::now();
     let _ = super::memory::take_peak_mb();
     let manifest = Manifest::read(scan)?;
@@ -680,25 +687,36 @@ fn run_view(o: &Out, cx: &ViewCx, v: usize) -> Result<ViewDone, Error> {
             );
             let name = Layout::decode(v);
             let decision = o.decide(&name, &fp);
-            let (map_hash, mut map) =
-                match &decision {
-                    Decision::Reuse(rec) => {
-                        vr.decode = Some(section(&decision, 0.0, recorded(&rec.report)));
-                        (rec.hash, None)
-                    }
-                    Decision::Run(_) => {
-                        let imgs = load_frames(&frames, &rig.image)?;
-                        let refs: Vec<(Pattern, &Image8)> = imgs.iter().map(|(p, i)| (*p, i)).collect();
-                        let (map, dr) = stages::decode(&refs, (pw, ph), &params.decode)
-                            .map_err(|source| Error::View { view: v, stage: Stage::Decode, source })?;
-                        let hash = o.put(&name, &rig::npy::to_bytes(&map.to_npy()), fp, &dr)?;
-                        // Previews are for looking at: fast compression (deflating them was a sixth of a view's time).
-                        rig::image::write_png(&o.path(&Layout::projector_preview(v)), &map.preview(pw, ph), true)?;
-                        vr.decode = Some(section(&decision, t.elapsed().as_secs_f64(), dr));
-                        (hash, Some(map))
-                    }
-                };
+            let (map_hash, mut map) = match &decision {
+                Decision::Reuse(rec) => {
+                    vr.decode = Some(section(&decision, 0.0, recorded(&rec.report)));
+                    (rec.hash, None)
+                }
+                Decision::Run(_) => {
+                    let imgs = load_frames(&frames, &rig.image)?;
+                    let refs: Vec<(Pattern, &Image8)> = imgs.iter().map(|(p, i)| (*p, i)).collect();
+                    // Frame checks name the scan's files; forced, their failures become warnings.
+                    let names: Vec<String> = view.frames.iter().map(|f| f.file.clone()).collect();
+                    let dp = crate::structured_light::DecodeParams { force: params.force, ..params.decode };
+                    let (map, mut dr) = stages::decode(&refs, (pw, ph), &dp).map_err(|source| {
+                        let source = match source {
+                            stages::StageError::Decode(e) => stages::StageError::Decode(e.name_frames(&names)),
+                            other => other,
+                        };
+                        Error::View { view: v, stage: Stage::Decode, source }
+                    })?;
+                    dr.name_frames(&names);
+                    let hash = o.put(&name, &rig::npy::to_bytes(&map.to_npy()), fp, &dr)?;
+                    // Previews are for looking at: fast compression (deflating them was a sixth of a view's time).
+                    rig::image::write_png(&o.path(&Layout::projector_preview(v)), &map.preview(pw, ph), true)?;
+                    vr.decode = Some(section(&decision, t.elapsed().as_secs_f64(), dr));
+                    (hash, Some(map))
+                }
+            };
             vr.reused &= decision.reused();
+            if let Some(d) = &vr.decode {
+                made.warnings.extend(d.report.warnings().into_iter().map(|w| format!("view {v}: {w}")));
+            }
             made.names.push(name.clone());
             if params.until < Stage::Triangulate {
                 // Stopping after decoding still reports the view and records its map.
@@ -920,9 +938,13 @@ fn scan_stages(
     if params.until < Stage::Merge || outputs.is_empty() {
         return Ok(());
     }
-    // Merge.
+    // Merge, within the working volume: a laser scan's capped at the object's top its lines show.
     let t = Instant::now();
-    let fp = grid_inputs(Fingerprint::new(json!({"crop": crop, "rig.turntable": rig_part(&rig.turntable)})), &outputs);
+    let top = (method == Method::Laser).then(TopParams::default);
+    let fp = grid_inputs(
+        Fingerprint::new(json!({"crop": crop, "object_top": top, "rig.turntable": rig_part(&rig.turntable)})),
+        &outputs,
+    );
     let decision = o.decide(layout::MERGED, &fp);
     let (mut cloud_name, mut cloud_hash, mut cloud) = match &decision {
         Decision::Reuse(rec) => {
@@ -931,7 +953,40 @@ fn scan_stages(
         }
         Decision::Run(_) => {
             load_grids(o, &mut outputs)?;
-            let (merged, mr) = stages::merge(&view_grids(&outputs), rig.turntable.as_ref(), crop);
+            let volume =
+                super::volume::working_volume(&view_grids(&outputs), rig.turntable.as_ref(), crop, top.as_ref());
+            let (merged, mut mr) = stages::merge(&view_grids(&outputs), rig.turntable.as_ref(), &volume.crop(crop));
+            mr.volume = Some(volume);
+            let measured: usize = outputs
+                .iter()
+                .map(|vo| match vo.data.as_ref() {
+                    Some(Measured::Grid(g)) => g.valid.iter().filter(|&&v| v).count(),
+                    Some(Measured::Sparse(s)) => s.points.len(),
+                    None => 0,
+                })
+                .sum();
+            if measured == 0 {
+                return Err(Error::LeftNothing {
+                    stage: Stage::Triangulate,
+                    why: format!(
+                        "none of the {} view(s) gave a point: check that the scan's method ({method:?} in scan.json) \
+                         is how its frames were captured, and that its frames show the object lit",
+                        outputs.len()
+                    ),
+                });
+            }
+            if merged.positions.is_empty() {
+                return Err(Error::LeftNothing {
+                    stage: Stage::Merge,
+                    why: format!(
+                        "no point of the {} view(s) lies inside the object cylinder (radius {}, at least {} mm above \
+                         the platter): check --crop-radius and --crop-min-height, and the rig's turntable axis",
+                        outputs.len(),
+                        crop.radius_mm.map_or("the platter's".to_string(), |r| format!("{r} mm")),
+                        crop.min_height_mm
+                    ),
+                });
+            }
             let (merged, hash) = o.put_cloud(layout::MERGED, &merged, fp, &mr, false)?;
             report.merge = Some(stage_section(&decision, t.elapsed().as_secs_f64(), mr));
             (layout::MERGED, hash, Some(merged))
@@ -940,6 +995,10 @@ fn scan_stages(
     report.outputs.push(layout::MERGED.into());
     o.save()?;
     progress(Stage::Merge, 1, 1);
+    // Registration places the views again: within the same volume.
+    let volume = report.merge.as_ref().and_then(|m| m.report.volume.clone());
+    report.warnings.extend(volume.iter().flat_map(|v| v.warnings()));
+    let crop = &volume.map_or(*crop, |v| v.crop(crop));
 
     // Register.
     if params.until >= Stage::Register {
@@ -1074,9 +1133,15 @@ fn scan_stages(
     let t = Instant::now();
     // The platter plane, where the base is cut: object z = 0 on a turntable.
     let platter_z = rig.turntable.is_some().then_some(0.0);
-    let fp =
-        Fingerprint::new(json!({ "reconstruct": params.reconstruct, "finish": params.finish, "platter_z": platter_z }))
-            .input(input_name, input_hash);
+    // The working volume's top (the object's, as the merge found it): no surface above it.
+    let top_z = crop.max_height_mm.filter(|_| rig.turntable.is_some());
+    let fp = Fingerprint::new(json!({
+        "reconstruct": params.reconstruct,
+        "finish": params.finish,
+        "platter_z": platter_z,
+        "top_z": top_z,
+    }))
+    .input(input_name, input_hash);
     let decision = o.decide(layout::MESH, &fp);
     // The mesh as written (normals, colours), for its copies in other formats.
     let mut written_mesh: Option<rig::PolyMesh> = None;
@@ -1096,8 +1161,24 @@ fn scan_stages(
             let tree = crate::kd_tree::PointTree::new(&input.positions);
             let (mesh, rr) = stages::reconstruct_in(&input, &params.reconstruct, Some(&tree))
                 .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
-            let (mesh, finish) = stages::finish(mesh, &input, &params.finish, platter_z, rr.cell())
+            let (mut mesh, mut finish) = stages::finish(mesh, &input, &params.finish, platter_z, rr.cell())
                 .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source })?;
+            if let Some(z) = top_z {
+                let high = mesh.vertices.iter().map(|p| p.z).fold(Real::NEG_INFINITY, Real::max);
+                let cut = crate::reconstruct::top_cut::cut_top(&mesh, z)
+                    .map_err(|e| Error::Stage { stage: Stage::Reconstruct, source: e.into() })?;
+                if let Some((cut, r)) = cut {
+                    // A millimetre of the low-pass's rounding is the reconstruction's own: recorded, not warned of.
+                    if high > z + 1.0 {
+                        report.warnings.push(format!(
+                        "mesh.ply: the reconstruction rose to {high:.1} mm, above the working volume's top at {z:.1} mm \
+                         (the object's top as the merge found it): cut flat there ({} triangles removed)",
+                        r.removed
+                    ));
+                    }
+                    (mesh, finish.top) = (cut, Some(r));
+                }
+            }
             if let Some(b) = finish.base.filter(|b| b.outline_edges == 0) {
                 report.warnings.push(format!(
                     "mesh.ply: the mesh does not reach {} mm above the platter, so its base was not cut ({:?}): \
@@ -1242,5 +1323,8 @@ pub fn register_processed(
         laser: Some(*k),
         data: ViewData::Sparse(s),
     }));
+    // Within the working volume the merge of `process` applies (a laser scan's capped at its top).
+    let top = (manifest.method == Method::Laser).then(TopParams::default);
+    let crop = super::volume::working_volume(&views, Some(&axis), &crop, top.as_ref()).crop(&crop);
     stages::register(&views, &axis, &crop, params).map_err(|source| Error::Stage { stage: Stage::Register, source })
 }

@@ -83,7 +83,7 @@ pub enum StageError {
     },
     /// A streamline spacing so small the quad mesh could not be built in reasonable time.
     #[error(
-        "a spacing of {spacing} is {ratio:.0} times finer than the default for a mesh {diagonal:.4} across: \
+        "--spacing {spacing:.3e}: {ratio:.0} times finer than the default for a mesh {diagonal:.4} across; \
          give at least {smallest:.4}"
     )]
     SpacingTooSmall {
@@ -96,6 +96,9 @@ pub enum StageError {
         /// The smallest spacing accepted.
         smallest: Real,
     },
+    /// A parameter outside what the stage can use ([`crate::limits`]).
+    #[error(transparent)]
+    Param(#[from] crate::limits::ParamError),
     /// Denoising refused the grid.
     #[error(transparent)]
     Denoise(#[from] DenoiseError),
@@ -173,6 +176,7 @@ pub fn denoise(
     temporal: usize,
     params: &DenoiseStage,
 ) -> Result<(RangeGrid, DenoiseReport), StageError> {
+    params.validate()?;
     let (mut clean, report) = crate::denoise::denoise_sequence(frames, current, temporal, &params.filter)?;
     if clean.normals.is_some() {
         estimate_normals(&mut clean, params.normal_max_jump);
@@ -221,6 +225,9 @@ pub struct MergeReport {
     /// Points that had no normal (laser lines; grid cells whose neighbours jump) and got a PCA normal
     /// over their neighbours, turned toward their camera.
     pub sensor_normals: usize,
+    /// The working volume applied and the points each view had outside it ([`super::volume`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub volume: Option<super::volume::VolumeReport>,
 }
 
 /// Neighbours for the PCA normals of clouds without normals. 48, because laser samples are dense
@@ -366,6 +373,8 @@ pub fn register(
     crop: &CropParams,
     params: &RegisterParams,
 ) -> Result<(PointCloud, Vec<ViewPose>, RegisterReport), StageError> {
+    params.validate()?;
+    crop.validate()?;
     if views.iter().any(|v| matches!(v.data, ViewData::Sparse(_))) {
         return register_lasers(views, axis, crop, params);
     }
@@ -551,6 +560,7 @@ pub fn fuse_borrowed(cloud: rig::CloudRef<'_>, params: &FuseParams) -> Result<(F
 }
 
 fn check_fusable(cloud: rig::CloudRef<'_>, params: &FuseParams) -> Result<(), StageError> {
+    params.validate_for(cloud.len())?;
     check_finite(cloud)?;
     let k = params.mean_shift.k;
     if cloud.len() <= k.max(params.mean_shift.density_k) {
@@ -650,6 +660,7 @@ pub fn reconstruct_in<'a>(
 ) -> Result<(TriMesh, ReconstructReport), StageError> {
     let cloud = cloud.into();
     check_finite(cloud)?;
+    params.validate_for(rig::Aabb::of(cloud.positions).map_or(0.0, |b| b.diagonal()))?;
     let (mesh, report) = match params {
         ReconstructParams::Fft(p) => {
             let (m, r) = reconstruct_fft_in(cloud, p, tree)?;
@@ -693,6 +704,10 @@ pub struct FinishReport {
     /// The trim, where asked.
     #[serde(default)]
     pub trim: Option<TrimReport>,
+    /// The cut at the working volume's top, where the mesh rose above it
+    /// ([`crate::reconstruct::top_cut`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub top: Option<BaseReport>,
     /// What was not done and why.
     #[serde(default)]
     pub skipped: Vec<String>,
@@ -723,6 +738,7 @@ pub fn finish(
     platter_z: Option<Real>,
     cell: Real,
 ) -> Result<(TriMesh, FinishReport), StageError> {
+    params.validate()?;
     let mut report = FinishReport::default();
     let mut mesh = mesh;
     match (params.base, platter_z) {
@@ -739,7 +755,21 @@ pub fn finish(
     if let Some(t) = params.trim {
         // The base (cap and skirt) is where the object stood: kept by definition, not by samples.
         let base = report.base.filter(|r| r.outline_edges > 0).map(|r| r.z + r.skirt);
+        let faces_before = mesh.faces.len();
         let (trimmed, r) = crate::reconstruct::trim::trim(&mesh, &samples.positions, t, params.trim_fill, base);
+        // A trim that takes (nearly) the whole surface is a distance below the data's spacing, not a
+        // result.
+        if trimmed.faces.len() * 10 < faces_before {
+            return Err(StageError::Implausible {
+                what: format!(
+                    "--trim {t} removed {} of the mesh's {faces_before} faces",
+                    faces_before - trimmed.faces.len()
+                ),
+                hint: format!(
+                    "the distance is below the samples' spacing; give a larger --trim (the grid cell is {cell:.4})"
+                ),
+            });
+        }
         mesh = trimmed;
         report.trim = Some(r);
     }
@@ -811,6 +841,7 @@ fn check_finite(cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
 
 /// A quad mesh of a triangle mesh (ch. 6).
 pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, RemeshReport), StageError> {
+    params.validate()?;
     if let (Some(spacing), Some(b)) = (params.spacing, mesh.bounding_box()) {
         let diagonal = b.diagonal();
         let default = crate::remesh::quad_remesh::DEFAULT_SPACING * diagonal;
@@ -819,8 +850,32 @@ pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, Remesh
             let smallest = default / MAX_SPACING_REFINEMENT;
             return Err(StageError::SpacingTooSmall { spacing, diagonal, ratio: default / spacing, smallest });
         }
+        // Streamlines farther apart than half the mesh's size cross it once or never: no quads.
+        if spacing > diagonal / 2.0 {
+            return Err(StageError::Implausible {
+                what: format!("--spacing {spacing:.4e} is more than half the mesh's size ({diagonal:.4} across)"),
+                hint: format!("no quads fit; give a spacing below {:.4} (the default is {default:.4})", diagonal / 2.0),
+            });
+        }
     }
-    let (mut quads, report) = crate::remesh::remesh(mesh, params)?;
+    let (mut quads, mut report) = crate::remesh::remesh(mesh, params)?;
+    if quads.face_count() == 0 {
+        return Err(StageError::Implausible {
+            what: format!("the remesh of {} triangles has no faces", mesh.faces.len()),
+            hint: "the mesh may be degenerate (no area) or the --spacing too coarse for it".into(),
+        });
+    }
+    // What the splitter leaves of n-gons, and quads that fold, are cut into triangles: readers
+    // (Open3D) refuse non-convex polygons, and a fan folds them. Kept only when asked for.
+    if params.split_polygons {
+        let (readable, cut) = quads.with_readable_faces();
+        quads = readable;
+        let sizes = quads.face_sizes();
+        let q = &mut report.quality;
+        (q.faces, q.quads, q.triangles, q.polygons) = (quads.face_count(), sizes.quads, sizes.triangles, sizes.larger);
+        q.quad_fraction = sizes.quads as Real / q.faces.max(1) as Real;
+        report.split.cut_for_readers = cut;
+    }
     // Readers triangulate polygons by fans from the first corner; start each where that adds no
     // non-manifold diagonal.
     quads.rotate_faces_for_fans();
@@ -888,7 +943,7 @@ pub fn grid_colours(grid: &RangeGrid, texture: &rig::image::Image8) -> Option<Ve
 }
 
 /// How much finer than the default a remesh spacing may be.
-pub const MAX_SPACING_REFINEMENT: Real = 50.0;
+pub const MAX_SPACING_REFINEMENT: Real = crate::limits::MAX_SPACING_RATIO;
 
 /// The registered poses as `registered.poses.json` holds them.
 pub fn poses_json(poses: &[ViewPose]) -> Vec<u8> {

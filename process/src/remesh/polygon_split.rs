@@ -15,6 +15,10 @@ pub struct SplitStats {
     pub polygons: usize,
     /// Of those, how many were split.
     pub split: usize,
+    /// Faces cut into triangles afterwards so other tools can read them: polygons the split left and
+    /// non-convex quads ([`rig::PolyMesh::with_readable_faces`]).
+    #[serde(default)]
+    pub cut_for_readers: usize,
 }
 
 /// The sum of |corner angle − 90°| of a quad, in degrees; `None` if a corner is reflex-like

@@ -1,0 +1,307 @@
+//! The limits of every stage's parameters, in one place. Each stage's params type has a `validate`
+//! that its stage function calls first, before any work, and [`crate::ProcessParams::validate`] runs
+//! them all before `process`'s first stage — so a value that cannot be right is refused in
+//! milliseconds with the option's name, whether it came from the command line, Python or Rust.
+//! The command line and the bindings re-state none of these checks.
+//!
+//! | option | limit | why |
+//! |---|---|---|
+//! | `--shadow-threshold`, `--gray-fit-radius` | see `decode::DecodeParams::validate` | the decoder owns them |
+//! | `--k` (fusion) | 6 ..= [`MAX_FUSE_K`](crate::limits::MAX_FUSE_K), and at most half the cloud | a kernel fits a plane to its neighbours; one that spans the cloud fuses it into a blob |
+//! | `--window`, `--patch` | odd, 3 ..= [`MAX_WINDOW`](crate::limits::MAX_WINDOW) | the filter's work grows with the square; past it a grid's surface is not locally flat |
+//! | `--iterations` | 1 ..= 100 | |
+//! | `--crop-radius` | > 0, finite | |
+//! | `--crop-min-height` | finite, below [`MAX_HEIGHT_MM`](crate::limits::MAX_HEIGHT_MM) | |
+//! | `--max-correction-deg` / `-mm` | (0, 180] / > 0 finite | |
+//! | `--depth` (fft) | [`FFT_DEPTHS`](crate::limits::FFT_DEPTHS) | 2^11 per axis is 64 GB of grid |
+//! | `--depth` (adfft) | [`ADFFT_DEPTHS`](crate::limits::ADFFT_DEPTHS) | |
+//! | `--memory-budget` | > 0, finite | |
+//! | `--smoothing-cells` | (0, 64] | |
+//! | `--error` | > 0, finite | |
+//! | `--trim` | > 0, finite | |
+//! | `--spacing` | > 0, finite; against the mesh: 1/[`MAX_SPACING_RATIO`](crate::limits::MAX_SPACING_RATIO) of the default up to half the diagonal | |
+//! | `--features` | [0, 180] degrees | |
+//! | `--weight` | > 0, finite | |
+
+use crate::denoise::Similarity;
+use crate::pipeline::stages::{DenoiseStage, FinishParams, FuseParams, ReconstructParams};
+use crate::placement::CropParams;
+use crate::register_scan::RegisterParams;
+use crate::remesh::RemeshParams;
+use rig::math::Real;
+
+/// Largest neighbourhood or patch side of the denoising filter.
+pub const MAX_WINDOW: usize = 31;
+/// Largest number of neighbours a fusion kernel may take.
+pub const MAX_FUSE_K: usize = 1000;
+/// Highest crop floor, mm: no turntable holds an object taller than this.
+pub const MAX_HEIGHT_MM: Real = 10_000.0;
+/// Grid depths the global FFT method accepts.
+pub const FFT_DEPTHS: std::ops::RangeInclusive<u32> = 2..=10;
+/// Equivalent-grid depths AdFFT accepts.
+/// Equivalent-grid depths AdFFT accepts: its blend visits every point of the 2^(3·depth) equivalent
+/// grid, so depth 10 (10⁹ points) takes minutes and 11 tens of minutes on a 2-core machine.
+pub const ADFFT_DEPTHS: std::ops::RangeInclusive<u32> = 6..=9;
+/// AdFFT's `--error`, as a fraction of the cloud's bounding-box diagonal: below the smallest every
+/// cell splits to the finest depth, above the largest none does.
+pub const ADFFT_ERROR_RANGE: (Real, Real) = (1e-7, 0.1);
+/// How many times finer than the default (1 % of the diagonal) a remeshing spacing may be: quads grow
+/// with the square, so 10× finer is already 100× the default remesh's faces.
+pub const MAX_SPACING_RATIO: Real = 10.0;
+
+pub use rig::limits::ParamError;
+
+fn bad(option: &'static str, value: impl std::fmt::Display, why: impl Into<String>) -> ParamError {
+    ParamError { option, value: value.to_string(), why: why.into() }
+}
+
+fn positive(option: &'static str, x: Real, what: &str) -> Result<(), ParamError> {
+    if x > 0.0 && x.is_finite() { Ok(()) } else { Err(bad(option, x, format!("must be a positive {what}"))) }
+}
+
+impl DenoiseStage {
+    /// Checks the filter's sizes and passes (module table).
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let f = &self.filter;
+        let side = |half: usize, option| {
+            if (1..=MAX_WINDOW / 2).contains(&half) {
+                Ok(())
+            } else {
+                Err(bad(option, 2 * half + 1, format!("must be an odd size from 3 to {MAX_WINDOW}")))
+            }
+        };
+        side(f.window, "--window")?;
+        if let Similarity::NonLocal { half } = f.similarity {
+            side(half, "--patch")?;
+        }
+        if !(1..=100).contains(&f.iterations) {
+            return Err(bad("--iterations", f.iterations, "must be from 1 to 100"));
+        }
+        if let Some((d, s)) = f.bandwidth {
+            positive("--bandwidth", d, "distance (d)")?;
+            positive("--bandwidth", s, "distance (s)")?;
+        }
+        Ok(())
+    }
+}
+
+impl FuseParams {
+    /// Checks the kernel size alone (module table); [`FuseParams::validate_for`] also against a cloud.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let k = self.mean_shift.k;
+        if !(6..=MAX_FUSE_K).contains(&k) {
+            return Err(bad(
+                "--k",
+                k,
+                format!("must be from 6 (a kernel fits a plane to its neighbours) to {MAX_FUSE_K}"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// [`FuseParams::validate`], and a kernel of at most half a cloud of `points` points: one spanning
+    /// the cloud would fuse it into a single blob.
+    pub fn validate_for(&self, points: usize) -> Result<(), ParamError> {
+        self.validate()?;
+        let k = self.mean_shift.k;
+        if points >= k && k.saturating_mul(2) > points {
+            return Err(bad(
+                "--k",
+                k,
+                format!("is more than half the cloud's {points} points: every kernel would span the cloud"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl CropParams {
+    /// Checks the object cylinder (module table).
+    pub fn validate(&self) -> Result<(), ParamError> {
+        if let Some(r) = self.radius_mm {
+            positive("--crop-radius", r, "distance in mm")?;
+        }
+        if !(self.min_height_mm.is_finite() && self.min_height_mm < MAX_HEIGHT_MM) {
+            return Err(bad(
+                "--crop-min-height",
+                self.min_height_mm,
+                format!("must be a height below {MAX_HEIGHT_MM} mm"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl RegisterParams {
+    /// Checks the correction tolerance (module table).
+    pub fn validate(&self) -> Result<(), ParamError> {
+        let t = &self.tolerance;
+        if !(t.rotation_deg > 0.0 && t.rotation_deg <= 180.0) {
+            return Err(bad("--max-correction-deg", t.rotation_deg, "must be an angle in (0, 180] degrees"));
+        }
+        positive("--max-correction-mm", t.shift_mm, "distance in mm")
+    }
+}
+
+impl ReconstructParams {
+    /// Checks depth, memory budget, smoothing and error (module table).
+    pub fn validate(&self) -> Result<(), ParamError> {
+        match self {
+            ReconstructParams::Fft(p) => {
+                if !FFT_DEPTHS.contains(&p.depth) {
+                    return Err(bad(
+                        "--depth",
+                        p.depth,
+                        format!(
+                            "the global method takes {}–{} (2^depth grid points per axis); use --method adfft for finer",
+                            FFT_DEPTHS.start(),
+                            FFT_DEPTHS.end()
+                        ),
+                    ));
+                }
+                if !(p.smoothing_cells > 0.0 && p.smoothing_cells <= 64.0) {
+                    return Err(bad(
+                        "--smoothing-cells",
+                        p.smoothing_cells,
+                        "must be a positive number of cells up to 64",
+                    ));
+                }
+                budget(p.memory_budget)
+            }
+            ReconstructParams::Adfft(p) => {
+                if !ADFFT_DEPTHS.contains(&p.depth) {
+                    return Err(bad(
+                        "--depth",
+                        p.depth,
+                        format!(
+                            "AdFFT takes {}–{}: its blend visits all 2^(3·depth) points of the equivalent grid \
+                             (depth 10: 10⁹ points, minutes; 11: tens of minutes)",
+                            ADFFT_DEPTHS.start(),
+                            ADFFT_DEPTHS.end()
+                        ),
+                    ));
+                }
+                if let Some(e) = p.error {
+                    positive("--error", e, "distance")?;
+                }
+                budget(p.memory_budget)
+            }
+        }
+    }
+}
+
+impl crate::ProcessParams {
+    /// Every stage's parameters at once ([`crate::limits`]): `process_scan` calls it before its
+    /// first stage, so an option a late stage cannot use is refused before minutes of early ones.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        // Decoding's limits live with the decoder (decode crate); the same refusal, as a ParamError.
+        if let Err(crate::DecodeError::Param(e)) = self.decode.validate() {
+            return Err(e);
+        }
+        if let Some(d) = &self.denoise {
+            d.validate()?;
+        }
+        self.crop.validate()?;
+        self.register.validate()?;
+        self.fuse.validate()?;
+        self.reconstruct.validate()?;
+        self.finish.validate()?;
+        self.remesh.validate()
+    }
+}
+
+impl ReconstructParams {
+    /// [`ReconstructParams::validate`], and AdFFT's `--error` against a cloud `diagonal` across
+    /// ([`ADFFT_ERROR_RANGE`]).
+    pub fn validate_for(&self, diagonal: Real) -> Result<(), ParamError> {
+        self.validate()?;
+        if let ReconstructParams::Adfft(p) = self
+            && let Some(e) = p.error
+            && diagonal > 0.0
+        {
+            let (lo, hi) = (ADFFT_ERROR_RANGE.0 * diagonal, ADFFT_ERROR_RANGE.1 * diagonal);
+            if !(lo..=hi).contains(&e) {
+                return Err(bad(
+                    "--error",
+                    e,
+                    format!("for a cloud {diagonal:.4} across it must be from {lo:.3e} to {hi:.4} (cloud units)"),
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn budget(bytes: u64) -> Result<(), ParamError> {
+    if bytes == 0 {
+        return Err(bad("--memory-budget", 0, "must be a positive number of GB"));
+    }
+    Ok(())
+}
+
+impl FinishParams {
+    /// Checks the trim distance (module table).
+    pub fn validate(&self) -> Result<(), ParamError> {
+        match self.trim {
+            Some(t) => positive("--trim", t, "distance (mm)"),
+            None => Ok(()),
+        }
+    }
+}
+
+impl RemeshParams {
+    /// Checks spacing, feature angle and weight alone (module table); the spacing is held against the
+    /// mesh's size by the remesher.
+    pub fn validate(&self) -> Result<(), ParamError> {
+        if let Some(s) = self.spacing {
+            positive("--spacing", s, "distance")?;
+        }
+        if let Some(a) = self.feature_angle
+            && !(0.0..=180.0).contains(&a)
+        {
+            return Err(bad("--features", a, "must be an angle from 0 to 180 degrees"));
+        }
+        positive("--weight", self.weight, "weight")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_pass_and_each_limit_names_its_option() {
+        assert!(DenoiseStage::default().validate().is_ok());
+        assert!(FuseParams::default().validate().is_ok());
+        assert!(CropParams::default().validate().is_ok());
+        assert!(RegisterParams::default().validate().is_ok());
+        assert!(ReconstructParams::default().validate().is_ok());
+        assert!(FinishParams::default().validate().is_ok());
+        assert!(RemeshParams::default().validate().is_ok());
+
+        let mut f = FuseParams::default();
+        f.mean_shift.k = 43_000;
+        assert_eq!(f.validate().unwrap_err().option, "--k");
+        f.mean_shift.k = 30;
+        assert!(f.validate_for(43_001).is_ok());
+        assert!(f.validate_for(50).unwrap_err().to_string().contains("half the cloud"));
+
+        let crop = CropParams { min_height_mm: 1e9, ..Default::default() };
+        assert_eq!(crop.validate().unwrap_err().option, "--crop-min-height");
+        let crop = CropParams { radius_mm: Some(Real::NAN), ..Default::default() };
+        assert_eq!(crop.validate().unwrap_err().option, "--crop-radius");
+
+        let r = crate::reconstruct::global_fft::FftParams { depth: 30, ..Default::default() };
+        let e = ReconstructParams::Fft(r).validate().unwrap_err();
+        assert!(e.option == "--depth" && e.to_string().contains("30"), "{e}");
+        let finish = FinishParams { trim: Some(-1.0), ..Default::default() };
+        assert_eq!(finish.validate().unwrap_err().option, "--trim");
+        let remesh = RemeshParams { spacing: Some(Real::INFINITY), ..Default::default() };
+        assert_eq!(remesh.validate().unwrap_err().option, "--spacing");
+
+        // process checks the last stage's options before the first stage runs.
+        assert!(crate::ProcessParams::default().validate().is_ok());
+        let late = crate::ProcessParams { remesh, ..Default::default() };
+        assert_eq!(late.validate().unwrap_err().option, "--spacing");
+    }
+}
