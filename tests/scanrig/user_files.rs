@@ -168,3 +168,39 @@ fn a_folder_being_scanned_into_is_locked() {
     assert!(!o.status.success() && stderr(&o).contains("another scanrig (process 1) is writing into this folder"));
     assert!(!out.join("scan.json").exists(), "nothing captured into a locked folder");
 }
+
+/// Issue 37: the demo's `quads.ply` held 5- to 21-sided and non-convex polygons that Open3D cannot
+/// decompose. A remesh now holds only triangles and convex quads.
+#[test]
+fn a_remesh_holds_only_triangles_and_convex_quads() {
+    let d = tempfile::tempdir().unwrap();
+    let p = |n: &str| d.path().join(n);
+    // A lumpy closed surface: a sphere with bumps, meshed by the reconstruction.
+    let n = 4000;
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let mut cloud = rig::PointCloud::default();
+    let mut normals = Vec::new();
+    for i in 0..n {
+        let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+        let a = golden * i as f64;
+        let dir = rig::Vector3::new((1.0 - z * z).sqrt() * a.cos(), (1.0 - z * z).sqrt() * a.sin(), z);
+        let r = 20.0 * (1.0 + 0.15 * (3.0 * a).sin() * (4.0 * z).cos());
+        cloud.positions.push(rig::Point3::from(dir * r));
+        normals.push(dir);
+    }
+    cloud.normals = Some(normals);
+    rig::write_cloud(&p("cloud.ply"), &cloud, &Default::default()).unwrap();
+    let o = scanrig(&[&"reconstruct", &p("cloud.ply"), &"-o", &p("mesh.ply"), &"--depth", &"7"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = scanrig(&[&"remesh", &p("mesh.ply"), &"-o", &p("quads.ply")]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let quads = rig::read_mesh(&p("quads.ply")).unwrap();
+    let sizes = quads.face_sizes();
+    assert!(sizes.quads > 0 && sizes.larger == 0, "{sizes:?}");
+    let folded = quads
+        .faces()
+        .filter(|f| f.len() == 4)
+        .filter(|f| !rig::polygon::is_convex(&f.iter().map(|&v| quads.vertices[v as usize]).collect::<Vec<_>>()))
+        .count();
+    assert_eq!(folded, 0, "non-convex quads in {sizes:?}");
+}
