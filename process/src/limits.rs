@@ -188,6 +188,26 @@ impl ReconstructParams {
             }
         }
     }
+
+    /// [`ReconstructParams::validate`], and AdFFT's `--error` against a cloud `diagonal` across
+    /// ([`ADFFT_ERROR_RANGE`]).
+    pub fn validate_for(&self, diagonal: Real) -> Result<(), ParamError> {
+        self.validate()?;
+        if let ReconstructParams::Adfft(p) = self
+            && let Some(e) = p.error
+            && diagonal > 0.0
+        {
+            let (lo, hi) = (ADFFT_ERROR_RANGE.0 * diagonal, ADFFT_ERROR_RANGE.1 * diagonal);
+            if !(lo..=hi).contains(&e) {
+                return Err(bad(
+                    "--error",
+                    e,
+                    format!("for a cloud {diagonal:.4} across it must be from {lo:.3e} to {hi:.4} (cloud units)"),
+                ));
+            }
+        }
+        Ok(())
+    }
 }
 
 impl crate::ProcessParams {
@@ -207,28 +227,6 @@ impl crate::ProcessParams {
         self.reconstruct.validate()?;
         self.finish.validate()?;
         self.remesh.validate()
-    }
-}
-
-impl ReconstructParams {
-    /// [`ReconstructParams::validate`], and AdFFT's `--error` against a cloud `diagonal` across
-    /// ([`ADFFT_ERROR_RANGE`]).
-    pub fn validate_for(&self, diagonal: Real) -> Result<(), ParamError> {
-        self.validate()?;
-        if let ReconstructParams::Adfft(p) = self
-            && let Some(e) = p.error
-            && diagonal > 0.0
-        {
-            let (lo, hi) = (ADFFT_ERROR_RANGE.0 * diagonal, ADFFT_ERROR_RANGE.1 * diagonal);
-            if !(lo..=hi).contains(&e) {
-                return Err(bad(
-                    "--error",
-                    e,
-                    format!("for a cloud {diagonal:.4} across it must be from {lo:.3e} to {hi:.4} (cloud units)"),
-                ));
-            }
-        }
-        Ok(())
     }
 }
 
