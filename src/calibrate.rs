@@ -67,6 +67,25 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
             params.projector_size = Some(size);
         }
     }
+    // Checked before the images are read (minutes on a large sweep), not after.
+    params.validate()?;
+    // The captures are only read: nothing the run writes may land among them or replace one.
+    let report_path = report_path(&args.out);
+    let page_path = report_path.with_extension("html");
+    // A folder of captures is read whole; images named by a pattern are each registered as read.
+    let captures: Vec<(&str, &Path)> = if source.is_dir() { vec![("CAPTURES", &source)] } else { Vec::new() };
+    crate::outputs::plan(
+        &captures,
+        &[
+            ("--out", Some(&args.out)),
+            ("--yaml", args.yaml.as_deref()),
+            ("its report", Some(&report_path)),
+            ("its report page", Some(&page_path)),
+        ],
+    )?;
+    if source.is_dir() {
+        rig::run_files::input_folder(&source);
+    }
     let mut progress = Progress::new();
     let positions = calib::workflow::load(&source, params.orientation, params.projector_size, |done, total| {
         progress.update("reading images", done, total)
@@ -89,7 +108,6 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     for w in &warnings {
         eprintln!("warning: {w}");
     }
-    let report_path = report_path(&args.out);
     let implausible = !warnings.is_empty() && !args.force;
     // An implausible rig is not written (an existing rig file stays as it was); its report is, so
     // the figures can be looked at.
@@ -103,7 +121,6 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     let report = Value::Object(report);
     rig::error::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     // The page too, implausible or not: that is when a user most needs to look.
-    let page_path = report_path.with_extension("html");
     let turn = params.orientation;
     // The rig and the JSON report are written; a page that cannot be is a warning.
     match web::calib_report::write(&page_path, &report, &|p: &Path| turn.read(p).ok()) {

@@ -437,11 +437,8 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 /// A chessboard's inner corners COLSxROWS: at least 2×2 to fix a pose, at most 200 a side (a board
 /// finer than that spans fewer than 20 pixels a square on any camera's image).
 fn parse_board(s: &str) -> Result<(u32, u32), String> {
-    parse_pair(s, 2, MAX_BOARD_CORNERS, "inner corners")
+    parse_pair(s, 2, calib::workflow::limits::MAX_BOARD_CORNERS as u32, "inner corners")
 }
-
-/// The most inner corners a side of a chessboard.
-pub const MAX_BOARD_CORNERS: u32 = 200;
 
 fn parse_pair(s: &str, min: u32, max: u32, unit: &str) -> Result<(u32, u32), String> {
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected WIDTHxHEIGHT, got `{s}`"))?;

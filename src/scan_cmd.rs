@@ -106,6 +106,8 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
     let mut plan = acquire::Plan::full_turn(method, program.clone(), cfg.scan.views as usize);
     plan.seed = Some(args.world.seed);
     plan.settle = Duration::from_millis(args.settle_ms);
+    // The session checks it again; here before the turntable is opened.
+    plan.validate()?;
 
     // The turntable: a board on a serial port, or the virtual one.
     let board = match &args.port {

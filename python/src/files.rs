@@ -18,12 +18,25 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
+/// What a reader could not keep, as Python `UserWarning`s (one per sentence, each naming the file):
+/// the same sentences the command line prints, so nothing is dropped in silence here either.
+fn warn_each(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
+    let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+    for w in warnings {
+        let message = std::ffi::CString::new(w.replace('\0', " ")).expect("NULs replaced");
+        PyErr::warn(py, &category, &message, 1)?;
+    }
+    Ok(())
+}
+
 /// Reads a point cloud (any format scanrig reads, by extension). Returns a dict of arrays: points
 /// (N×3 float64), normals, colors (N×3 uint8), confidence (float32), view_id (uint32) — None where
-/// the file has none.
+/// the file has none. What the file holds that cannot be kept is named in a `UserWarning`.
 #[pyfunction]
 fn read_cloud(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
-    let cloud = py.detach(|| rig::read_cloud(&path)).map_err(errors::file)?;
+    let read = py.detach(|| rig::read_cloud_reported(&path)).map_err(errors::file)?;
+    warn_each(py, &read.warnings)?;
+    let cloud = read.value;
     let d = PyDict::new(py);
     d.set_item("points", arrays::points_out(py, cloud.positions))?;
     d.set_item("normals", cloud.normals.map(|n| arrays::vectors_out(py, n)))?;
@@ -59,9 +72,12 @@ fn write_cloud(
 
 /// Reads a mesh (PLY, OBJ, STL, GLB). Returns a dict: vertices (V×3), faces (a list of index lists:
 /// triangles, quads, polygons as in the file), triangles (F×3, the faces fanned), normals, colors.
+/// What the file holds that cannot be kept is named in a `UserWarning`.
 #[pyfunction]
 fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
-    let mesh = py.detach(|| rig::read_mesh(&path)).map_err(errors::file)?;
+    let read = py.detach(|| rig::read_mesh_reported(&path)).map_err(errors::file)?;
+    warn_each(py, &read.warnings)?;
+    let mesh = read.value;
     let tri = mesh.triangulate();
     let d = PyDict::new(py);
     d.set_item("faces", mesh.faces().map(|f| f.to_vec()).collect::<Vec<_>>())?;

@@ -44,6 +44,18 @@ def test_clouds_and_meshes_round_trip_through_files(tmp_path):
     assert np.allclose(back["points"], cloud["points"], atol=1e-6)
 
 
+def test_what_a_reader_cannot_keep_is_a_python_warning_naming_the_file(tmp_path):
+    # Two vertices with colours, one without: the colours cannot be kept per vertex.
+    obj = tmp_path / "partly-coloured.obj"
+    obj.write_text("v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0\nf 1 2 3\n")
+    with pytest.warns(UserWarning, match="partly-coloured.obj: its vertex colours are not kept: 2 of 3"):
+        mesh = scanrig.read_mesh(obj)
+    assert mesh["vertices"].shape == (3, 3) and mesh["colors"] is None
+    with pytest.warns(UserWarning, match="partly-coloured.obj"):
+        cloud = scanrig.read_cloud(obj)
+    assert cloud["points"].shape == (3, 3)
+
+
 def test_fuse_equals_the_cli(tmp_path, bunny_fused):
     fused, kept, report = bunny_fused
     src = BUNNY / "reconstruction/bun_zipper_res2.ply"

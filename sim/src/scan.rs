@@ -150,6 +150,8 @@ pub(crate) fn write_view(
             0 => rig::image::png_bytes(&img, true),
             q => rig::image::jpeg_bytes(&img, q),
         };
+        // Plain writes, but under the one rule of rig::run_files (never over a file the run read).
+        rig::run_files::check_write(&path)?;
         std::fs::write(&path, bytes).map_err(|e| Error::File(rig::Error::io(&path, e)))
     })?;
     if opts.truth {

@@ -4,6 +4,7 @@
 //! arguments, shows progress and writes the files.
 
 pub mod captures;
+pub mod limits;
 pub mod plausible;
 mod steps;
 
@@ -153,9 +154,9 @@ pub enum WorkflowError {
     /// The projector's size is unknown.
     #[error("projector: give its resolution with --projector WIDTHxHEIGHT")]
     ProjectorSize,
-    /// The board's description cannot be right.
-    #[error("--board needs at least 2x2 inner corners and --square a positive size")]
-    BadBoard,
+    /// An option outside what calibration can use ([`limits`]).
+    #[error(transparent)]
+    Param(#[from] rig::limits::ParamError),
 }
 
 /// The chessboard: inner corners across and down, square size.
@@ -216,10 +217,8 @@ pub fn calibrate_rig(
     params: &RigCalibParams,
     mut progress: impl FnMut(&str, usize, usize),
 ) -> Result<(Rig, CalibReport), WorkflowError> {
+    params.validate()?;
     let BoardSpec { cols, rows, square_mm } = params.board;
-    if cols < 2 || rows < 2 || !(square_mm > 0.0 && square_mm.is_finite()) {
-        return Err(WorkflowError::BadBoard);
-    }
     let board = Board {
         cols,
         rows,

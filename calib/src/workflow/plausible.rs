@@ -73,6 +73,11 @@ pub fn findings(rig: &Rig, report: &serde_json::Map<String, Value>) -> Vec<Strin
     if report.contains_key("camera") {
         out.extend(lens_findings("camera", &rig.camera));
     }
+    // The rules every rig reader holds a rig to (rig::limits): a calibration that breaks one would
+    // be refused by the next command that reads the file, so it is not written as a success.
+    if let Err(p) = rig.validate() {
+        out.push(format!("the calibrated rig would not be readable: {p}"));
+    }
     out
 }
 
@@ -141,5 +146,14 @@ mod tests {
         assert!(f.len() == 1 && f[0].starts_with("turntable sweep RMS reprojection error 8.30 px"), "{f:?}");
         report.insert("turntable".into(), serde_json::json!({"rms_px": f64::NAN}));
         assert_eq!(findings(&rig, &report).len(), 1, "NaN (null in JSON) is not plausible");
+    }
+
+    #[test]
+    fn a_rig_no_reader_would_take_is_a_finding() {
+        let mut rig = crate::workflow::camera_only("r", camera());
+        assert!(findings(&rig, &serde_json::Map::new()).is_empty());
+        rig.platter_radius_mm = Some(-3.0);
+        let f = findings(&rig, &serde_json::Map::new());
+        assert!(f.len() == 1 && f[0].contains("platter_radius_mm"), "{f:?}");
     }
 }

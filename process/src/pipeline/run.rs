@@ -998,6 +998,7 @@ fn scan_stages(
     // Registration places the views again: within the same volume.
     let volume = report.merge.as_ref().and_then(|m| m.report.volume.clone());
     report.warnings.extend(volume.iter().flat_map(|v| v.warnings()));
+    let line_spacing = volume.as_ref().and_then(|v| v.spacing);
     let crop = &volume.map_or(*crop, |v| v.crop(crop));
 
     // Register.
@@ -1235,6 +1236,11 @@ fn scan_stages(
             (hash, Some(back))
         }
     };
+    // A laser scan's lines far apart for this mesh's cell: ribs, said whether the mesh ran or was reused.
+    let cell = report.reconstruct.as_ref().map(|r| r.report.reconstruct.cell());
+    if let (Some(s), Some(cell)) = (line_spacing, cell) {
+        report.warnings.extend(s.warning(cell, params.reconstruct.depth()));
+    }
     report.outputs.push(layout::MESH.into());
     // The same surface for printing (binary STL) and for web viewers (GLB).
     let held = written_mesh.take();

@@ -595,6 +595,16 @@ pub enum ReconstructParams {
     Adfft(AdFftParams),
 }
 
+impl ReconstructParams {
+    /// The octree depth (the global grid's, 2^depth a side).
+    pub fn depth(&self) -> u32 {
+        match self {
+            ReconstructParams::Fft(p) => p.depth,
+            ReconstructParams::Adfft(p) => p.depth,
+        }
+    }
+}
+
 impl Default for ReconstructParams {
     fn default() -> Self {
         ReconstructParams::Fft(FftParams::default())

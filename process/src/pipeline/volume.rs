@@ -46,6 +46,79 @@ pub struct VolumeReport {
     pub above_top: usize,
     /// Per view (and laser), in view order.
     pub views: Vec<ViewVolume>,
+    /// How far apart a laser scan's lines lie around the axis (laser scans with a turntable).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub spacing: Option<LineSpacing>,
+}
+
+/// How far apart a laser scan's lines lie around the turntable axis. Each line is one meridian of the
+/// object; between neighbouring lines the surface is not measured but made up by the reconstruction,
+/// which at a fine depth follows each line and sags between them: ribs. The largest gap, as an arc at
+/// the object's median radius, held against the mesh's cell, says when that happens.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct LineSpacing {
+    /// Lines with points in the volume.
+    pub lines: usize,
+    /// The largest angle between neighbouring lines around the axis (degrees).
+    pub largest_gap_deg: Real,
+    /// The median distance of the lines' points from the axis (mm).
+    pub radius_mm: Real,
+    /// That gap as an arc at that radius (mm).
+    pub largest_gap_mm: Real,
+}
+
+/// A mesh cell this many times smaller than the widest gap between lines resolves ribs along them.
+pub const MAX_GAP_CELLS: Real = 4.0;
+
+impl LineSpacing {
+    /// The lines of `placed` (each a line's points in the object frame, inside the volume): each at
+    /// the median azimuth of its points. `None` for fewer than two lines.
+    pub fn of(placed: &[Vec<Point3>]) -> Option<LineSpacing> {
+        let median = |mut v: Vec<Real>| -> Option<Real> {
+            if v.is_empty() {
+                return None;
+            }
+            let mid = v.len() / 2;
+            Some(*v.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1)
+        };
+        // A line's azimuth: its points' directions averaged as unit vectors (a line on the −x side
+        // straddles ±180°, where a median of angles would fail).
+        let mut azimuths: Vec<Real> = placed
+            .iter()
+            .filter_map(|pts| {
+                let (sx, sy) = pts.iter().fold((0.0, 0.0), |(sx, sy), p| {
+                    let r = p.x.hypot(p.y);
+                    if r > 0.0 { (sx + p.x / r, sy + p.y / r) } else { (sx, sy) }
+                });
+                (sx.hypot(sy) > 0.0).then(|| sy.atan2(sx).to_degrees())
+            })
+            .collect();
+        if azimuths.len() < 2 {
+            return None;
+        }
+        azimuths.sort_by(|a, b| a.total_cmp(b));
+        let wrap = 360.0 - (azimuths[azimuths.len() - 1] - azimuths[0]);
+        let largest = azimuths.windows(2).map(|w| w[1] - w[0]).fold(wrap, Real::max);
+        let radius = median(placed.iter().flatten().map(|p| p.x.hypot(p.y)).collect())?;
+        Some(LineSpacing {
+            lines: azimuths.len(),
+            largest_gap_deg: largest,
+            radius_mm: radius,
+            largest_gap_mm: radius * largest.to_radians(),
+        })
+    }
+
+    /// The warning for a mesh of `cell` (mm) made from these lines at `--depth depth`, when the widest
+    /// gap spans more than [`MAX_GAP_CELLS`] cells.
+    pub fn warning(&self, cell: Real, depth: u32) -> Option<String> {
+        let cells = self.largest_gap_mm / cell;
+        (cells > MAX_GAP_CELLS).then(|| {
+            format!(
+                "mesh.ply: the laser lines lie up to {:.1}° apart around the axis ({:.1} mm at the object's median                  radius {:.0} mm), {cells:.0} times the mesh's {cell:.2} mm cell (--depth {depth}): between the lines                  the surface is not measured, and the mesh shows ribs along them; take more views (`scan --views`,                  `sim --views`) or reconstruct at a lower --depth",
+                self.largest_gap_deg, self.largest_gap_mm, self.radius_mm
+            )
+        })
+    }
 }
 
 impl VolumeReport {
@@ -151,6 +224,16 @@ pub fn working_volume(
     };
     let mut report =
         VolumeReport { radius_mm: radius, max_height_mm: cap, top: found.map(|f| f.0), ..Default::default() };
+    if top.is_some() && turntable.is_some() {
+        let inside = |p: &&Point3| p.z >= crop.min_height_mm && within(p) && cap.is_none_or(|c| p.z <= c);
+        let lines: Vec<Vec<Point3>> = views
+            .iter()
+            .zip(&placed)
+            .filter(|(v, _)| matches!(v.data, ViewData::Sparse(_)))
+            .map(|(_, pts)| pts.iter().filter(inside).copied().collect())
+            .collect();
+        report.spacing = LineSpacing::of(&lines);
+    }
     for (v, pts) in views.iter().zip(&placed) {
         let mut vv = ViewVolume { view: v.view, laser: v.laser, points: pts.len(), ..Default::default() };
         for p in pts {
@@ -216,5 +299,28 @@ mod tests {
         // Without lines (structured light) only the radius and the user's cap apply.
         let r = working_volume(&views, Some(&axis), &crop, None);
         assert!(r.top.is_none() && r.max_height_mm.is_none() && r.above_top == 0 && r.outside_radius == 2);
+        assert!(r.spacing.is_none());
+    }
+
+    #[test]
+    fn the_widest_gap_between_lines_is_measured_at_the_median_radius_and_said_against_the_cell() {
+        // Lines at 0°, 10°, …, 350° except 180° (missing) on a 30 mm cylinder; one wraps through ±180°.
+        let line_at = |deg: Real| -> Vec<Point3> {
+            let a = deg.to_radians();
+            (0..20).map(|k| Point3::new(30.0 * a.cos(), 30.0 * a.sin(), k as Real)).collect()
+        };
+        let lines: Vec<Vec<Point3>> = (0..36).filter(|&k| k != 18).map(|k| line_at(10.0 * k as Real)).collect();
+        let s = LineSpacing::of(&lines).unwrap();
+        assert_eq!(s.lines, 35);
+        assert!((s.largest_gap_deg - 20.0).abs() < 1e-9 && (s.radius_mm - 30.0).abs() < 1e-9, "{s:?}");
+        assert!((s.largest_gap_mm - 30.0 * 20f64.to_radians()).abs() < 1e-9);
+        // 10.5 mm against a 0.5 mm cell: 21 cells, said naming the depth and the views; a 3 mm cell is fine.
+        let w = s.warning(0.5, 8).unwrap();
+        assert!(w.contains("20.0° apart") && w.contains("--depth 8") && w.contains("--views"), "{w}");
+        assert!(s.warning(3.0, 8).is_none());
+        // One line: no spacing; a full set 1° apart at 30 mm: 0.52 mm, under four 0.2 mm cells.
+        assert!(LineSpacing::of(&lines[..1]).is_none());
+        let dense: Vec<Vec<Point3>> = (0..360).map(|k| line_at(k as Real - 180.0)).collect();
+        assert!(LineSpacing::of(&dense).unwrap().warning(0.2, 9).is_none());
     }
 }

@@ -167,6 +167,17 @@ fn the_readme_laser_example_meshes_the_object_and_a_sparse_scan_says_take_more_v
     // (Seeds 1–3 and the CLI's own run: `cargo run -p process --example laser_mesh_accuracy`.)
     assert!(median <= 1e-3 * diag, "mesh median {median} mm from the truth");
     assert!(p95 <= 5e-3 * diag, "mesh p95 {p95} mm from the truth");
+    // Issue 37: its 36 lines 10° apart leave the surface between them unmeasured, and the mesh ribbed
+    // along them (up to 0.8 mm off the truth): the report says so rather than "every check passed".
+    let report: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let spacing = &report["merge"]["report"]["volume"]["spacing"];
+    let gap = spacing["largest_gap_deg"].as_f64().unwrap();
+    assert!((gap - 10.0).abs() < 1.0, "lines {gap}° apart: {spacing}");
+    let warnings: Vec<&str> = report["warnings"].as_array().unwrap().iter().filter_map(|w| w.as_str()).collect();
+    assert!(
+        warnings.iter().any(|w| w.contains("10.0° apart") && w.contains("ribs") && w.contains("--views")),
+        "{warnings:?}"
+    );
 
     // Six views: lines 60° apart.
     let sparse_cfg = SimConfig { scan: sim::config::ScanConfig { views: 6, ..cfg.scan.clone() }, ..cfg };
