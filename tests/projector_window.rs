@@ -1,6 +1,8 @@
 //! Issue 6, acceptance 4: the projector window shows a pattern under Xvfb, checked on a screenshot
 //! of the screen (`xwd`). Built with `--features projector-window`; skipped with a message where
-//! Xvfb or xwd cannot run.
+//! Xvfb or xwd cannot run. A test binary of its own: building it with the feature rebuilds this file
+//! and the command line, not every integration test (`.ci/run`).
+#![cfg(feature = "projector-window")]
 
 use std::io::{BufRead, BufReader};
 use std::process::{Child, Command, Stdio};

@@ -10,8 +10,6 @@ mod frame_sequences;
 mod hostile;
 mod independent_readers;
 mod pages;
-#[cfg(feature = "projector-window")]
-mod projector_window;
 mod python_bindings;
 mod run;
 mod scanner_files;

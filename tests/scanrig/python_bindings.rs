@@ -24,13 +24,15 @@ fn the_python_bindings_pass_their_pytest_suite() {
         return;
     }
     let out = Command::new("python3")
-        .args(["-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider"])
+        .args(["-m", "pytest", "-q", "-rs", "-p", "no:cacheprovider", "--durations=8"])
         .arg(root.join("python/tests"))
         .env("SCANRIG_CLI", env!("CARGO_BIN_EXE_scanrig"))
         .output()
         .expect("python3 runs");
     let text = format!("{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
     eprintln!("{text}");
+    // cargo test hides a passing test's output: .ci/run prints the suite's tail (its slowest tests).
+    let _ = std::fs::write(std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("pytest-output.txt"), &text);
     assert!(out.status.success(), "pytest failed:\n{text}");
     // A skip inside the suite is allowed only off CI, and says so above.
     if std::env::var_os("SCANRIG_REQUIRE_PYTHON").is_some() {

@@ -41,7 +41,8 @@ fn bunny_pairs_register_from_perturbed_poses() {
         ("bun270", "bun180", 0.458),
         ("bun315", "bun270", 0.347),
     ];
-    let trials = 100;
+    // 50 seeded starts a pair measure the 95 % bar (47 of 50) as 100 did, in half the time (issue 38).
+    let trials = 50;
     let params = IcpParams::default();
     let mut scans: HashMap<&str, Scan> = HashMap::new();
     for name in ["bun000", "bun045", "bun090", "bun180", "bun270", "bun315"] {
@@ -63,18 +64,24 @@ fn bunny_pairs_register_from_perturbed_poses() {
         let c_true = pm * Point3::from(centroid);
         let (mut ok, mut stat, mut iterations) = (0, None, 0);
         let start = std::time::Instant::now();
-        for trial in 0..trials {
-            let mut rng = Rng::new(0x5eed_0000 + trial as u64 * 7919 + moving_name.len() as u64);
-            let angle = (5.0 + 10.0 * rng.uniform()).to_radians();
-            let rot = UnitQuaternion::from_scaled_axis(rng.direction() * angle);
-            let shift = rng.direction() * (5.0 + 5.0 * rng.uniform());
-            // Rotate about the aligned centroid, then shift: the perturbed start.
-            let perturb = Isometry3::from_parts(Translation3::from(c_true.coords + shift), rot)
-                * Translation3::from(-c_true.coords);
-            let initial = perturb * pm;
-            let result = icp(&m.points, &m.normals, &target, &initial, &params);
-            let Ok((est, report)) = result else { continue };
-            iterations += report.iterations;
+        // The trials are independent: run side by side, then counted in trial order.
+        use rayon::prelude::*;
+        let results: Vec<Option<(Isometry3, usize)>> = (0..trials)
+            .into_par_iter()
+            .map(|trial| {
+                let mut rng = Rng::new(0x5eed_0000 + trial as u64 * 7919 + moving_name.len() as u64);
+                let angle = (5.0 + 10.0 * rng.uniform()).to_radians();
+                let rot = UnitQuaternion::from_scaled_axis(rng.direction() * angle);
+                let shift = rng.direction() * (5.0 + 5.0 * rng.uniform());
+                // Rotate about the aligned centroid, then shift: the perturbed start.
+                let perturb = Isometry3::from_parts(Translation3::from(c_true.coords + shift), rot)
+                    * Translation3::from(-c_true.coords);
+                let initial = perturb * pm;
+                icp(&m.points, &m.normals, &target, &initial, &params).ok().map(|(est, r)| (est, r.iterations))
+            })
+            .collect();
+        for (est, its) in results.into_iter().flatten() {
+            iterations += its;
             let rot_err = (est.rotation.inverse() * pm.rotation).angle().to_degrees();
             let shift_err = (est * Point3::from(centroid) - c_true).norm();
             if rot_err < 1.0 && shift_err < 1.0 {
