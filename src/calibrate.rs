@@ -119,7 +119,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         report.insert("rig".into(), json!(args.out));
     }
     let report = Value::Object(report);
-    rig::error::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+    rig::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     // The page too, implausible or not: that is when a user most needs to look.
     let turn = params.orientation;
     // The rig and the JSON report are written; a page that cannot be is a warning.

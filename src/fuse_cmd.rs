@@ -15,7 +15,15 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     let opts = crate::outputs::write_options_like(&args.input)?;
     // Fusion takes its input: kept here only when the outliers are to be written from it.
     let input = if args.outliers.is_some() { cloud.clone() } else { std::mem::take(&mut cloud) };
-    let (fused, r) = stages::fuse(input, &params).with_context(|| format!("fusing {}", args.input.display()))?;
+    let mut progress = crate::progress::Progress::new();
+    let total = input.len();
+    let (fused, r) = process::pipeline::watch::watched(
+        total,
+        |moved| stages::fuse_counting(input, &params, moved),
+        |done, total| progress.update("fusing", done, total),
+    )
+    .with_context(|| format!("fusing {}", args.input.display()))?;
+    progress.finish();
     rig::write_cloud(&args.out, &fused.cloud, &opts)?;
     if let Some(path) = &args.outliers {
         rig::write_cloud(path, &fused.outliers(&cloud), &opts)?;

@@ -33,7 +33,14 @@ pub fn run(args: &RemeshArgs) -> Result<()> {
         params.conductivity = Some(rig::remesh_inputs::read_face_values(path, mesh.faces.len())?);
     }
     let context = || format!("remeshing {}", args.input.display());
-    let (quads, report) = stages::remesh(&mesh, &params).with_context(context)?;
+    let mut progress = crate::progress::Progress::new();
+    let (quads, report) = process::pipeline::watch::watched(
+        process::remesh::quad_remesh::REMESH_PHASES,
+        |phases| stages::remesh_counting(&mesh, &params, phases),
+        |done, total| progress.update("remeshing", done, total),
+    )
+    .with_context(context)?;
+    progress.finish();
     rig::write_mesh(&args.out, &quads, &Default::default())?;
     if let Some(path) = &args.lines {
         let mut r = RemeshReport::default();

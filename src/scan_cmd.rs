@@ -181,6 +181,23 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
     );
     let devices =
         acquire::Devices { turntable: &mut turntable, camera: camera.as_mut(), projector: projector.as_mut() };
+    // Ctrl-C: the session stops before its next view, keeping every complete view and saying how to
+    // resume; a second Ctrl-C ends at once (the manifest only ever lists complete views).
+    let presses = std::sync::atomic::AtomicUsize::new(0);
+    let resume_with = format!("scanrig scan --out {} --resume", args.out.display());
+    let handler = ctrlc::set_handler(move || {
+        if presses.fetch_add(1, std::sync::atomic::Ordering::SeqCst) == 0 {
+            eprintln!("\nstopping after this view (Ctrl-C again to quit now); `{resume_with}` continues");
+            acquire::session::request_stop();
+        } else {
+            std::process::exit(130);
+        }
+    });
+    if let Err(e) = handler {
+        eprintln!(
+            "warning: Ctrl-C will end the scan at once, mid-view ({e}); --resume continues from the last complete view"
+        );
+    }
     let mut progress = crate::progress::Progress::new();
     let report = acquire::session::run(&args.out, &rig, &plan, args.resume, devices, |done, total, _eta| {
         progress.update("capture", done, total)

@@ -7,11 +7,11 @@ use anyhow::{Result, bail};
 use clap::Args;
 use process::DecodeParams;
 use process::denoise::{DenoiseParams, Direction, Similarity};
+use process::merge::CropParams;
 use process::pipeline::stages::{Base, DenoiseStage, FinishParams, FuseParams, ReconstructParams};
-use process::placement::CropParams;
 use process::reconstruct::adfft::AdFftParams;
 use process::reconstruct::global_fft::FftParams;
-use process::register_scan::{RegisterParams, Tolerance};
+use process::register::register_scan::{RegisterParams, Tolerance};
 use process::remesh::RemeshParams;
 
 /// Structured-light decoding.
@@ -164,7 +164,8 @@ pub struct FuseOpts {
 impl FuseOpts {
     pub fn params(&self) -> Result<FuseParams> {
         let d = FuseParams::default();
-        let p = FuseParams { mean_shift: process::mean_shift::MeanShiftParams { k: self.k, ..d.mean_shift }, ..d };
+        let p =
+            FuseParams { mean_shift: process::fuse::mean_shift::MeanShiftParams { k: self.k, ..d.mean_shift }, ..d };
         p.validate()?;
         Ok(p)
     }

@@ -90,6 +90,15 @@ impl Plan {
     }
 }
 
+/// Set by [`request_stop`]: the session stops before its next view.
+static STOP: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Asks a running session to stop before its next view (a Ctrl-C handler calls it): the views
+/// complete on disk stay, the session returns [`SessionError::Stopped`], and `--resume` continues.
+pub fn request_stop() {
+    STOP.store(true, std::sync::atomic::Ordering::SeqCst);
+}
+
 /// What a session did.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct SessionReport {
@@ -135,6 +144,16 @@ pub enum SessionError {
         total: usize,
         /// What failed.
         error: TurntableError,
+    },
+    /// Stopped on request ([`request_stop`], Ctrl-C) before a view.
+    #[error("stopped before view {view}: {complete} of {total} views are complete on disk; --resume continues")]
+    Stopped {
+        /// The first view not captured.
+        view: usize,
+        /// Complete views.
+        complete: usize,
+        /// Views planned.
+        total: usize,
     },
     /// The camera or projector failed at a view.
     #[error("view {view}: {error}; {complete} of {total} views are complete on disk (--resume continues)")]
@@ -261,6 +280,9 @@ pub fn run(
     for v in first..total {
         if manifest.views[v].complete {
             continue;
+        }
+        if STOP.swap(false, std::sync::atomic::Ordering::SeqCst) {
+            return Err(SessionError::Stopped { view: v, complete: complete(&manifest), total });
         }
         turntable.move_to(plan.angles[v]).map_err(|e| tt_err(v, &manifest, e))?;
         std::thread::sleep(plan.settle);

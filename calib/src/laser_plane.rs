@@ -3,7 +3,7 @@
 //! at the same position); the points of views with the board at different angles span the laser
 //! plane, fitted robustly (RANSAC, then least squares on the inliers) as Horus and FabScan do.
 //!
-//! Laser pixels are found by the caller (`process::laser_line` in `scanrig calibrate`); this module
+//! Laser pixels are found by the caller (`process::triangulate::laser_line` in `scanrig calibrate`); this module
 //! only needs them, and [`BoardRegion`] to keep those on the printed board.
 
 use crate::camera_calib::CalibError;

@@ -2,7 +2,7 @@
 //! masks from the white and black frames, and N-step phase shift, unwrapped by the Gray code and checked
 //! against it, for sub-pixel projector coordinates. One fused, parallel pass over the frames.
 
-use crate::frame_checks::{Counts, FrameIssue, IssueKind};
+use crate::frame_checks::{BLOCK, Counts, FrameIssue, IssueKind};
 use crate::phase_shift::{PhaseSteps, unwrap};
 use crate::projector_map::ProjectorMap;
 use rayon::prelude::*;
@@ -294,10 +294,6 @@ fn collect_axis<'a>(
     });
     Ok(Some(AxisFrames { size, gray, gray_index, phase }))
 }
-
-/// Pixels decoded per block: a fifth of a 1280-px row, so background blocks skip their frame reads (measured
-/// best of 128–2048), and long enough that the inner loops over one frame vectorise.
-pub(crate) const BLOCK: usize = 256;
 
 /// One axis decoded over a block of pixels `[i0, i0 + n)`: coordinate (NaN where undecoded) and
 /// confidence, written into `out`. Frame-major loops: each frame is read once, contiguously, per block.

@@ -3,8 +3,9 @@
 //!
 //! `cargo bench -p process --bench icp` — skips with a message where ../shared/data is absent.
 
-use process::icp::{IcpParams, IcpTarget, icp};
-use process::normals::{PointTree, pca_normals};
+use process::kd_tree::PointTree;
+use process::normals::pca_normals;
+use process::register::icp::{IcpParams, IcpTarget, icp};
 use rig::math::{Point3, Vector3};
 use std::time::Instant;
 

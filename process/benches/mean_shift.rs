@@ -9,8 +9,9 @@
 //!
 //! `cargo bench -p process --bench mean_shift` — part 1 skips with a message where ../shared/data is absent.
 
-use process::mean_shift::{MeanShiftParams, mean_shift};
-use process::normals::{PointTree, pca_normals};
+use process::fuse::mean_shift::{MeanShiftParams, mean_shift};
+use process::kd_tree::PointTree;
+use process::normals::pca_normals;
 use rig::PointCloud;
 use rig::math::{Point3, Real, UnitQuaternion, Vector3};
 use std::time::Instant;
@@ -69,7 +70,7 @@ fn main() {
     match bunny(&mut rng) {
         None => println!("bunny set skipped: ../shared/data/stanford-bunny not found"),
         Some(cloud) => {
-            let mut runs: Vec<(f64, process::mean_shift::MeanShiftReport)> = (0..3)
+            let mut runs: Vec<(f64, process::fuse::mean_shift::MeanShiftReport)> = (0..3)
                 .map(|_| {
                     let t = Instant::now();
                     let r = mean_shift(&cloud, &params);

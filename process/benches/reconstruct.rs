@@ -4,7 +4,8 @@
 //!
 //! `cargo bench -p process --bench reconstruct` — skips with a message where ../shared/data is absent.
 
-use process::normals::{PointTree, pca_normals};
+use process::kd_tree::PointTree;
+use process::normals::pca_normals;
 use process::reconstruct::adfft::{AdFftParams, reconstruct_adfft};
 use process::reconstruct::global_fft::{FftParams, grid_bytes, reconstruct_fft};
 use rig::math::Vector3;

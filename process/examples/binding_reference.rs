@@ -6,9 +6,10 @@
 //!
 //! `cargo run --release -p process --example binding_reference -- DIR`
 
-use process::icp::{IcpParams, IcpTarget, icp};
-use process::normals::{PointTree, pca_normals};
+use process::kd_tree::PointTree;
+use process::normals::pca_normals;
 use process::pipeline::stages::{self, FuseParams};
+use process::register::icp::{IcpParams, IcpTarget, icp};
 use rig::math::{Point3, Vector3};
 use rig::ply::{Precision, WriteOptions};
 use std::time::Instant;

@@ -6,21 +6,21 @@
 //! chains them over a scan folder. The catalogue, by stage, with the thesis chapter each algorithm
 //! implements:
 //!
-//! - **decode** ([`structured_light`], [`gray_code`], [`phase_shift`], [`projector_map`]; the `decode`
+//! - **decode** ([`decode::structured_light`], [`decode::gray_code`], [`decode::phase_shift`], [`decode::projector_map`]; the `decode`
 //!   crate, shared with calibration): Gray code with inverses, shadow and contrast masks, N-step
 //!   phase shift unwrapped by the Gray code;
 //! - **triangulate** ([`triangulate`]): camera ray against the projector's column surface
-//!   (distortion-aware) or least-squares ray–ray, and against laser planes ([`laser_line`]) — the
-//!   general form of eq. 2.3 (ch. 2), which [`triangulate::depth_eq_2_3`] states; [`grid_normals`]:
+//!   (distortion-aware) or least-squares ray–ray, and against laser planes ([`triangulate::laser_line`]) — the
+//!   general form of eq. 2.3 (ch. 2), which [`triangulate::depth_eq_2_3`] states; [`triangulate::grid_normals`]:
 //!   normals from range-grid neighbours, oriented toward the sensor;
 //! - **denoise** ([`denoise`]): per-scan non-local denoising of range grids, static and time-varying
 //!   (ch. 4, eqs. 4.3–4.6), with the bilateral filter in the same framework;
 //! - **merge** ([`merge`]): views into the object frame by turntable pose, cropped to the platter
 //!   cylinder and merged with view ids and confidences;
-//! - **register** ([`register`]): robust point-to-plane ICP (ch. 2.2, [`icp`]) and all views refined
-//!   together from their turntable poses ([`multiview`], [`register_scan`]);
+//! - **register** ([`register`]): robust point-to-plane ICP (ch. 2.2, [`register::icp`]) and all views refined
+//!   together from their turntable poses ([`register::multiview`], [`register::register_scan`]);
 //! - **fuse** ([`fuse`]): anisotropic mean shift with adaptive neighbourhoods, clustering and outlier
-//!   removal (ch. 3, eqs. 3.2–3.10, [`mean_shift`]); consistent normal orientation ([`orient`]);
+//!   removal (ch. 3, eqs. 3.2–3.10, [`fuse::mean_shift`]); consistent normal orientation ([`fuse::orient`]);
 //! - **reconstruct** ([`reconstruct`]): the global FFT method and AdFFT's partition of unity,
 //!   marching cubes (ch. 5);
 //! - **remesh** ([`remesh`]): harmonic and quasi-harmonic fields with line constraints, streamlines
@@ -37,23 +37,16 @@
 //! ```
 #![deny(missing_docs)]
 
-pub use decode::{gray_code, phase_shift, projector_map, structured_light};
-
 pub mod cell_grid;
 pub mod triangulate;
-pub use triangulate::{grid_normals, laser_line};
 
 pub mod denoise;
 
 pub mod merge;
-/// The merge stage under its old name.
-pub use merge as placement;
 
 pub mod register;
-pub use register::{icp, lasers, multiview, register_scan};
 
 pub mod fuse;
-pub use fuse::{mean_shift, orient, spatial_order};
 
 pub mod reconstruct;
 
@@ -70,10 +63,10 @@ pub mod mesh_distance;
 pub mod normals;
 pub mod preview;
 
+pub use decode::projector_map::ProjectorMap;
+pub use decode::structured_light::{DecodeError, DecodeParams, decode_view};
 pub use pipeline::stages::StageError;
 pub use pipeline::{ProcessParams, ProcessReport, Stage, process_scan};
-pub use projector_map::ProjectorMap;
-pub use structured_light::{DecodeError, DecodeParams, decode_view};
 
 use std::path::PathBuf;
 

@@ -19,14 +19,14 @@
 //! | `--smoothing-cells` | (0, 64] | |
 //! | `--error` | > 0, finite | |
 //! | `--trim` | > 0, finite | |
-//! | `--spacing` | > 0, finite; against the mesh: 1/[`MAX_SPACING_RATIO`](crate::limits::MAX_SPACING_RATIO) of the default up to half the diagonal | |
+//! | `--spacing` | > 0, finite; against the mesh: 1/[`MAX_SPACING_RATIO`](crate::remesh::quad_remesh::MAX_SPACING_RATIO) of the default up to half the diagonal | |
 //! | `--features` | [0, 180] degrees | |
 //! | `--weight` | > 0, finite | |
 
 use crate::denoise::Similarity;
+use crate::merge::CropParams;
 use crate::pipeline::stages::{DenoiseStage, FinishParams, FuseParams, ReconstructParams};
-use crate::placement::CropParams;
-use crate::register_scan::RegisterParams;
+use crate::register::register_scan::RegisterParams;
 use crate::remesh::RemeshParams;
 use rig::math::Real;
 
@@ -45,9 +45,6 @@ pub const ADFFT_DEPTHS: std::ops::RangeInclusive<u32> = 6..=9;
 /// AdFFT's `--error`, as a fraction of the cloud's bounding-box diagonal: below the smallest every
 /// cell splits to the finest depth, above the largest none does.
 pub const ADFFT_ERROR_RANGE: (Real, Real) = (1e-7, 0.1);
-/// How many times finer than the default (1 % of the diagonal) a remeshing spacing may be: quads grow
-/// with the square, so 10× finer is already 100× the default remesh's faces.
-pub const MAX_SPACING_RATIO: Real = 10.0;
 
 pub use rig::limits::ParamError;
 

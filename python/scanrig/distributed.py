@@ -24,7 +24,6 @@ Without ``--address`` (or ``RAY_ADDRESS``) a local Ray is started for the call a
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import pathlib
 import sys
@@ -70,12 +69,8 @@ def connect(address: Optional[str] = None, workers: Optional[int] = None) -> boo
 
 
 def _complete_views(scan: pathlib.Path) -> list[int]:
-    manifest = scan / "scan.json"
-    try:
-        views = json.loads(manifest.read_text())["views"]
-    except (OSError, ValueError, KeyError) as e:
-        raise _scanrig.FileError(f"{manifest}: not a scan manifest ({e})") from e
-    return [v for v, view in enumerate(views) if view.get("complete", True)]
+    # Read by the library, as every command reads a scan folder (journal applied, manifest checked).
+    return _scanrig._complete_views(str(scan))
 
 
 def _process_view(scan: str, view: int, force: bool) -> list[tuple[str, bytes]]:

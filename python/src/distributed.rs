@@ -19,7 +19,17 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_adopt, m)?)?;
     m.add_function(wrap_pyfunction!(_adfft_with, m)?)?;
     m.add_function(wrap_pyfunction!(_adfft_solve, m)?)?;
+    m.add_function(wrap_pyfunction!(_complete_views, m)?)?;
     Ok(())
+}
+
+/// The views of a scan folder that are complete, read as every command reads them (`rig::Manifest`:
+/// the manifest checked, its `scan.progress` journal applied, a view without `complete` refused) —
+/// not parsed again in Python.
+#[pyfunction]
+fn _complete_views(py: Python<'_>, scan: PathBuf) -> PyResult<Vec<usize>> {
+    let m = py.detach(|| rig::Manifest::read(&scan)).map_err(errors::file)?;
+    Ok(m.views.iter().enumerate().filter(|(_, v)| v.complete).map(|(i, _)| i).collect())
 }
 
 /// Every output a processed folder holds, with its records: a list of (name, bytes).

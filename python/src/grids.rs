@@ -172,7 +172,8 @@ fn register_views<'py>(
     rig: PathBuf,
     force: bool,
 ) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyAny>, Bound<'py, PyAny>)> {
-    use ::process::pipeline::stages::{self, ViewGrid};
+    use ::process::merge::views::ViewGrid;
+    use ::process::pipeline::stages;
     let list = grids.cast::<PyList>().map_err(|_| PyTypeError::new_err("grids: expected a list of grid dicts"))?;
     let grids: Vec<RangeGrid> =
         list.iter().enumerate().map(|(k, g)| grid_in(&g, &format!("grids[{k}]"))).collect::<PyResult<_>>()?;
@@ -193,8 +194,8 @@ fn register_views<'py>(
             rig.display()
         )));
     };
-    let crop = ::process::placement::CropParams { radius_mm: r.platter_radius_mm, ..Default::default() };
-    let params = ::process::register_scan::RegisterParams::default();
+    let crop = ::process::merge::CropParams { radius_mm: r.platter_radius_mm, ..Default::default() };
+    let params = ::process::register::register_scan::RegisterParams::default();
     let (cloud, poses, rep) = interruptible(py, move || {
         let views: Vec<ViewGrid> =
             grids.iter().zip(&angles_deg).enumerate().map(|(v, (g, a))| ViewGrid::grid(v, *a, g)).collect();

@@ -153,6 +153,29 @@ def test_process_equals_the_cli_on_a_simulated_scan(tmp_path):
             assert ours.read_bytes() == theirs.read_bytes(), name
 
 
+def test_the_views_ray_processes_are_those_every_command_reads_as_complete(tmp_path):
+    import json
+
+    from scanrig import _scanrig
+
+    scan = tmp_path / "scan"
+    run("sim", "--views", "3", "--resolution", "64x48", "--no-truth", "--out", scan)
+    assert _scanrig._complete_views(str(scan)) == [0, 1, 2]
+    manifest = json.loads((scan / "scan.json").read_text())
+    # A scan stopped after view 0: views 1 and 2 incomplete; its journal then completes view 2.
+    for v in manifest["views"][1:]:
+        v["complete"] = False
+    (scan / "scan.json").write_text(json.dumps(manifest))
+    assert _scanrig._complete_views(str(scan)) == [0]
+    (scan / "scan.progress").write_text("2\n")
+    assert _scanrig._complete_views(str(scan)) == [0, 2]
+    # A view that does not say whether it is complete is refused, not taken as complete.
+    del manifest["views"][0]["complete"]
+    (scan / "scan.json").write_text(json.dumps(manifest))
+    with pytest.raises(Exception, match="scan.json"):
+        _scanrig._complete_views(str(scan))
+
+
 def test_contiguous_float64_is_read_in_place_and_strided_arrays_are_gathered():
     from scanrig import _scanrig
 

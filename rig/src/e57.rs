@@ -6,9 +6,10 @@
 //! its pose, into one cloud; points without valid Cartesian coordinates (a scanner's "no return") are
 //! left out. Normals, confidence and view ids have no standard E57 field and are not written.
 
-use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::error::{Error, Location, ParseError, Problem};
 use crate::math::Point3;
 use crate::point_cloud::PointCloud;
+use crate::run_files::{read_bytes, write_atomic};
 use e57::{CartesianCoordinate, E57Reader, E57Writer, Record, RecordValue};
 use std::io::Cursor;
 use std::path::Path;

@@ -327,7 +327,7 @@ pub fn write_layout(scan: &Path, out: &Path, id: &str, turn: crate::image::Image
     }
     rig.image = turn;
     let config = crate::scanner_calibration::rig_to_fabscan(&rig).map_err(bad)?;
-    crate::error::write_atomic(&out.join("config.json"), config.as_bytes())
+    crate::run_files::write_atomic(&out.join("config.json"), config.as_bytes())
 }
 
 #[cfg(test)]

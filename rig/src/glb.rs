@@ -7,10 +7,11 @@
 //! node carries the change: a scale of 1/1000 and −90° about x. Reading applies every node's transform
 //! and undoes that convention, so any glTF file comes in as millimetres, +z up.
 
-use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::error::{Error, Location, ParseError, Problem};
 use crate::math::{Matrix3, Point3, Vector3};
 use crate::mesh::PolyMesh;
 use crate::point_cloud::PointCloud;
+use crate::run_files::{read_bytes, write_atomic};
 use serde_json::json;
 use std::path::Path;
 

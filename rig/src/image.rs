@@ -3,7 +3,8 @@
 //! Frames are grey (1 channel) or RGB (3 channels), row-major, row 0 at the top. Reading accepts any
 //! PNG (grey, grey+alpha, RGB, RGBA, palette, 1–16 bits) and converts it; `to_gray` gives luminance.
 
-use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::error::{Error, Location, ParseError, Problem};
+use crate::run_files::{read_bytes, write_atomic};
 use std::path::Path;
 
 /// How a camera's frames are turned before its calibration applies, in this order: transposed (a

@@ -37,7 +37,8 @@ pub use math::{Isometry3, Matrix3, Point2, Point3, Real, Rotation3, UnitVector3,
 
 /// Errors naming the file and the spot in it.
 pub mod error;
-pub use error::{Error, Location, ParseError, Problem, write_atomic};
+pub use error::{Error, Location, ParseError, Problem};
+pub use run_files::write_atomic;
 
 /// Which files a run may write: inputs and input folders are never replaced.
 pub mod run_files;

@@ -4,7 +4,8 @@
 //! Version 1.0 files, little-endian `f64`, `f32` or `u8`, C order. The reader takes the same and refuses
 //! anything else with a clear error.
 
-use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::error::{Error, Location, ParseError, Problem};
+use crate::run_files::{read_bytes, write_atomic};
 use std::path::Path;
 
 /// The element data of an array.

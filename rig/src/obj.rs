@@ -2,8 +2,9 @@
 //! negative relative indices, polygons of any size). Grouping, material and smoothing statements are
 //! read past; an unknown statement is an error, so a file that is not OBJ is not read as an empty mesh.
 
-use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::error::{Error, Location, ParseError, Problem};
 use crate::math::{Point3, Vector3};
+use crate::run_files::{read_bytes, write_atomic};
 use crate::{PointCloud, PolyMesh};
 use std::io::Write;
 use std::path::Path;

@@ -3,8 +3,9 @@
 //! `vertices faces edges` line, vertex lines, then faces as `k i1 … ik [colour]`. `#` starts a comment.
 
 use crate::PolyMesh;
-use crate::error::{Error, Location, ParseError, Problem, read_bytes};
+use crate::error::{Error, Location, ParseError, Problem};
 use crate::math::Point3;
+use crate::run_files::read_bytes;
 use std::path::Path;
 
 /// Parses OFF text into a polygon mesh (positions and faces; see [`parse_reported`] for what is not kept).

@@ -7,7 +7,8 @@
 //! `cols`, `dt` and a `data: [ … ]` list that may wrap over several lines.
 
 use crate::camera::{Distortion, PinholeCamera};
-use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::error::{Error, Location, ParseError, Problem};
+use crate::run_files::{read_bytes, write_atomic};
 use std::path::Path;
 
 /// A top-level value of an OpenCV YAML file.

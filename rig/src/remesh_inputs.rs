@@ -13,8 +13,9 @@
 //! **Per-face values** (`--conductivity`): one non-negative number per face, in face order,
 //! separated by white space or new lines; `#` comments allowed.
 
-use crate::error::{Error, Location, ParseError, Problem, read_bytes};
+use crate::error::{Error, Location, ParseError, Problem};
 use crate::math::{Point3, Real};
+use crate::run_files::read_bytes;
 use std::path::Path;
 
 /// One constraint polyline as written.

@@ -45,10 +45,11 @@
 //! scanner has is refused naming the file and the field.
 
 use crate::camera::{Distortion, PinholeCamera};
-use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::error::{Error, Location, ParseError, Problem};
 use crate::laser::{LaserColour, LaserPlane};
 use crate::math::{Isometry3, Matrix3, Point3, Real, Rotation3, Translation3, UnitQuaternion, UnitVector3, Vector3};
 use crate::projector::Projector;
+use crate::run_files::{read_bytes, write_atomic};
 use crate::turntable::TurntableAxis;
 use serde::{Deserialize, Serialize};
 use std::path::Path;

@@ -177,6 +177,34 @@ pub fn temp_folder_beside(target: &Path) -> Result<tempfile::TempDir, Error> {
     tempfile::Builder::new().prefix(&format!(".{name}.scanrig-tmp")).tempdir_in(dir).map_err(|e| Error::io(target, e))
 }
 
+/// Reads a whole regular file, naming it in the error: a FIFO, a device or a folder is refused, and no
+/// more than the file's size is read (see [`crate::input::read_regular`]).
+///
+/// While a run is open the file counts as its input (this module).
+pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, Error> {
+    let bytes = crate::input::read_regular(path, None)?;
+    note_read(path);
+    Ok(bytes)
+}
+
+/// Writes a file atomically: into a temporary sibling of a name no user owns, then renamed over the
+/// target, so a crash never leaves a half-written file where a complete one is expected. While a run
+/// is open, a target that is one of its inputs, or inside a folder it reads, is refused
+/// (this module).
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), Error> {
+    use std::io::Write;
+    check_write(path)?;
+    let mut tmp = temp_sibling(path)?;
+    let result = (|| {
+        tmp.as_file_mut().write_all(bytes)?;
+        tmp.as_file().sync_all()?;
+        tmp.persist(path).map_err(|e| e.error)
+    })();
+    result.map_err(|e| Error::io(path, e))?;
+    note_written(path);
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -26,8 +26,9 @@
 //! folder applies the journal, so an interrupted scan resumes where it stopped; writing the manifest
 //! folds the journal in and removes it.
 
-use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::error::{Error, Location, ParseError, Problem};
 use crate::patterns::Pattern;
+use crate::run_files::{read_bytes, write_atomic};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 

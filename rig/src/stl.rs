@@ -7,9 +7,10 @@
 //! on writing, and reading merges corners with identical coordinates back into shared vertices, so a
 //! closed mesh reads back closed.
 
-use crate::error::{Error, Location, ParseError, Problem, read_bytes, write_atomic};
+use crate::error::{Error, Location, ParseError, Problem};
 use crate::math::{Point3, Vector3};
 use crate::mesh::{PolyMesh, TriMesh};
+use crate::run_files::{read_bytes, write_atomic};
 use std::path::Path;
 
 /// A face's unit normal (counter-clockwise seen from outside), zero for a degenerate face as the format

@@ -204,3 +204,40 @@ fn a_remesh_holds_only_triangles_and_convex_quads() {
         .count();
     assert_eq!(folded, 0, "non-convex quads in {sizes:?}");
 }
+
+/// Issue 38: Ctrl-C during `scan` stops before the next view, keeps every complete view and says how
+/// to resume; the resumed scan completes.
+#[test]
+fn ctrl_c_stops_a_scan_between_views_and_says_how_to_resume() {
+    use std::process::{Command, Stdio};
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("s");
+    let args = ["scan", "--views", "6", "--resolution", "160x128", "--settle-ms", "300", "--out"];
+    let child = Command::new(env!("CARGO_BIN_EXE_scanrig"))
+        .args(args)
+        .arg(&out)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Once the first view is complete on disk, interrupt.
+    let start = std::time::Instant::now();
+    while !rig::Manifest::read(&out).is_ok_and(|m| m.views.iter().any(|v| v.complete)) {
+        assert!(start.elapsed().as_secs() < 60, "no view completed within 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let kill = Command::new("kill").args(["-INT", &child.id().to_string()]).status().unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("--resume") && err.contains("views are complete on disk"), "{err}");
+    let m = rig::Manifest::read(&out).unwrap();
+    let complete = m.views.iter().filter(|v| v.complete).count();
+    assert!((1..6).contains(&complete), "{complete} of 6 complete");
+    let mut again: Vec<&dyn AsRef<std::ffi::OsStr>> = args.iter().map(|a| a as &dyn AsRef<std::ffi::OsStr>).collect();
+    again.extend([&out as &dyn AsRef<std::ffi::OsStr>, &"--resume"]);
+    let o = scanrig(&again);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(rig::Manifest::read(&out).unwrap().views.iter().all(|v| v.complete));
+}

@@ -3,7 +3,8 @@
 //! turntable axis' fits, and the board poses around the camera in 3D.
 
 use crate::PageError;
-use crate::page::{Page, esc, facts, file_links, relative_link, warnings};
+use crate::escape::esc;
+use crate::page::{Page, facts, file_links, relative_link, warnings};
 use crate::picture::{jpeg_url, mark, thumbnail, to_rgb};
 use crate::plot::{bars, num, vectors};
 use crate::scene::Scene;

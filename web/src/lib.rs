@@ -14,6 +14,7 @@
 //! so a server can assemble the same sections from a running scan.
 
 pub mod calib_report;
+pub mod escape;
 pub mod page;
 pub mod picture;
 pub mod plot;

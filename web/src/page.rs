@@ -1,6 +1,7 @@
 //! The page skeleton: a title, sections with a navigation bar, an optional 3D viewer, and every
 //! asset inlined so the file opens offline.
 
+use crate::escape::{esc, href, script_text};
 use crate::scene::Scene;
 use std::fmt::Write as _;
 
@@ -12,49 +13,6 @@ pub const VIEWER_JS: &str = include_str!("../assets/viewer.js");
 pub const THREE_JS: &str = include_str!("../assets/vendor/three-0.187.0/three.bundle.min.js");
 /// The version of three.js inlined, named on every page with a viewer.
 pub const THREE_VERSION: &str = "0.187.0";
-
-/// Escapes text for HTML content and attribute values.
-pub fn esc(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for c in s.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\'' => out.push_str("&#39;"),
-            c => out.push(c),
-        }
-    }
-    out
-}
-
-/// A relative link's `href`: path segments percent-encoded where HTML or URLs would misread them.
-pub fn href(path: &str) -> String {
-    let mut out = String::with_capacity(path.len());
-    for b in path.bytes() {
-        match b {
-            b'A'..=b'Z' | b'a'..=b'z' | b'0'..=b'9' | b'-' | b'_' | b'.' | b'~' | b'/' => out.push(b as char),
-            _ => {
-                let _ = write!(out, "%{b:02X}");
-            }
-        }
-    }
-    out
-}
-
-/// Script source for inside a `<script>` element: `</` could end it early, so it is written `<\/`,
-/// which JavaScript strings read back as `</` (the inlined scripts hold neither `<!--` nor `</script`;
-/// a test checks).
-pub fn script_text(s: &str) -> String {
-    s.replace("</", "<\\/")
-}
-
-/// JSON for inside a `<script>` element: every `<` written `\u003c`, so no text in it (a file named
-/// `<!--<script>.ply`) can end the element or put the HTML parser in a state where it would not end.
-pub fn json_text(s: &str) -> String {
-    s.replace('<', "\\u003c")
-}
 
 /// A link from the folder `dir` to `file`: relative when `file` lies under `dir`, else its absolute
 /// path (which a `file://` page resolves on the same machine). An empty `dir` is the current folder.
@@ -184,14 +142,8 @@ mod tests {
     use super::*;
 
     #[test]
-    fn escapes_markup_and_script_ends() {
-        assert_eq!(esc("<a href=\"x\">&'"), "&lt;a href=&quot;x&quot;&gt;&amp;&#39;");
-        assert_eq!(script_text("a = '</script>'"), "a = '<\\/script>'");
-        let j = json_text(&serde_json::json!({"s": "<!--<script></script>"}).to_string());
-        assert!(!j.contains('<'));
-        assert_eq!(serde_json::from_str::<serde_json::Value>(&j).unwrap()["s"], "<!--<script></script>");
+    fn links_are_relative_to_the_page() {
         assert_eq!(relative_link(std::path::Path::new("a/b.ply"), std::path::Path::new("")), "a/b.ply");
-        assert_eq!(href("views/view 1#.ply"), "views/view%201%23.ply");
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! SVG charts for the pages: drawn here from numbers, so a page needs no charting script and a
 //! test can read the numbers back from the markup.
 
-use crate::page::esc;
+use crate::escape::esc;
 use process::preview::turbo;
 use std::fmt::Write as _;
 

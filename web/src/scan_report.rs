@@ -3,14 +3,15 @@
 //! in 3D, the mesh's error against the truth for simulated scans, and links to every output.
 
 use crate::PageError;
-use crate::page::{Page, esc, facts, file_links, warnings};
+use crate::escape::esc;
+use crate::page::{Page, facts, file_links, warnings};
 use crate::picture::{object_range, png_url};
 use crate::plot::{bars, colour_bar, histogram, num, series};
 use crate::scene::{Scene, count};
 use process::ProcessReport;
+use process::merge::views::turntable_pose;
 use process::mesh_distance::MeshDistance;
 use process::pipeline::layout::{self, Layout};
-use process::pipeline::stages::turntable_pose;
 use process::preview::turbo;
 use rayon::prelude::*;
 use rig::math::Real;
@@ -104,7 +105,21 @@ fn build_prepared(
         ),
     );
     let manifest = rig::Manifest::read(scan).ok();
-    page.section("summary", "Summary", summary(&report, rig.as_ref(), manifest.as_ref()));
+    let mut files: Vec<String> = report.outputs.iter().filter(|f| lay.path(f).exists()).cloned().collect();
+    files.push(layout::REPORT.into());
+    files.sort();
+    files.dedup();
+    // The results a person came for first (the mesh to print or view), then every other file.
+    files.sort_by_key(|f| HEADLINE.iter().position(|h| h == f).unwrap_or(HEADLINE.len()));
+    let headline: Vec<&String> = files.iter().filter(|f| HEADLINE.contains(&f.as_str())).collect();
+    let mut summary_html = String::new();
+    if !headline.is_empty() {
+        let links: Vec<String> =
+            headline.iter().map(|f| format!("<a href=\"{}\">{}</a>", esc(&crate::escape::href(f)), esc(f))).collect();
+        summary_html.push_str(&format!("<p class=\"downloads\">Results: {}</p>", links.join(" · ")));
+    }
+    summary_html.push_str(&summary(&report, rig.as_ref(), manifest.as_ref()));
+    page.section("summary", "Summary", summary_html);
     let PreparedScene { scene, extent, accuracy } = match prepared {
         Some(p) => p,
         None => prepare_scene(scan, processed)?,
@@ -118,13 +133,13 @@ fn build_prepared(
         page.section("accuracy", "Accuracy against the truth", html);
         truth_rms = Some(rms);
     }
-    let mut files: Vec<String> = report.outputs.iter().filter(|f| lay.path(f).exists()).cloned().collect();
-    files.push(layout::REPORT.into());
-    files.sort();
-    files.dedup();
     page.section("files", "Files", file_links(&files));
     Ok((page.render(), truth_rms))
 }
+
+/// The outputs a person downloads, in the order shown at the top of the page.
+const HEADLINE: [&str; 6] =
+    [layout::MESH_STL, layout::MESH_GLB, layout::MESH, layout::QUADS, layout::QUADS_PLY, layout::FUSED];
 
 /// What each view captured, from the first view's frames: "white, black, 20 Gray-code columns, …".
 fn capture_program(m: &rig::Manifest) -> String {
@@ -192,7 +207,8 @@ fn summary(r: &ProcessReport, rig: Option<&Rig>, manifest: Option<&rig::Manifest
     let mut h = facts(&rows);
     // Points and seconds per stage, in pipeline order.
     let view_points: usize = r.views.iter().map(|v| v.points).sum();
-    let view_seconds: Real = r.views.iter().map(|v| v.seconds).sum();
+    // Wall time: views run side by side, so their own seconds add up to more than was waited.
+    let view_seconds: Real = r.views_seconds.unwrap_or_else(|| r.views.iter().map(|v| v.seconds).sum());
     let mut stages: Vec<(&str, String, Real, &str)> = vec![("views", count(view_points), view_seconds, "points")];
     let status = |reused: bool| if reused { "reused" } else { "ran" };
     if let Some(s) = &r.merge {
@@ -492,7 +508,7 @@ fn views(r: &ProcessReport, rig: Option<&Rig>, extent: Option<Extent>, lay: &Lay
         let _ = write!(
             h,
             "<div class=\"thumb\"><a href=\"{}\"><img alt=\"view {v} depth\" src=\"{}\"></a>view {v}</div>",
-            esc(&crate::page::href(&t.name)),
+            esc(&crate::escape::href(&t.name)),
             png_url(&t.image(lo, hi)),
             v = t.view
         );

@@ -6,7 +6,7 @@
 //! decimated so the page stays light and the browser fast: clouds by an even stride (views stay
 //! evenly represented, since clouds are stored view by view), meshes by vertex clustering.
 
-use crate::page::{esc, json_text};
+use crate::escape::{esc, json_text};
 use base64::Engine as _;
 use rayon::prelude::*;
 use rig::math::{Point3, Real};

@@ -2,7 +2,8 @@
 //! each, in the viewer.
 
 use crate::PageError;
-use crate::page::{Page, esc, facts, file_links, relative_link};
+use crate::escape::esc;
+use crate::page::{Page, facts, file_links, relative_link};
 use crate::scene::{Scene, count};
 use std::path::{Path, PathBuf};
 

@@ -16,11 +16,12 @@
 //!   maxima of section 3.3.1).
 
 use crate::cell_grid::{CellGrid, kth_distance};
-use crate::normals::PointTree;
+use crate::kd_tree::PointTree;
 use rayon::prelude::*;
 use rig::PointCloud;
 use rig::math::{Matrix3, Point3, Real, Vector3};
 use serde::Serialize;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Mean-shift settings; lengths in the cloud's units.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -300,17 +301,23 @@ pub fn mean_shift<'a>(cloud: impl Into<rig::CloudRef<'a>>, params: &MeanShiftPar
     // Every step is per-point neighbourhood work: in Morton order it stays cache-local, so time
     // grows linearly with the cloud (BENCHMARKS.md, mean shift scaling). The ordered copy is made
     // from the borrowed arrays directly: a caller's buffers are read once, not copied first.
-    let order = crate::spatial_order::morton_order(cloud.positions);
-    in_input_order(mean_shift_in_order(&cloud.select(&order), params), &order)
+    let order = crate::fuse::spatial_order::morton_order(cloud.positions);
+    in_input_order(mean_shift_in_order(&cloud.select(&order), params, None), &order)
 }
 
 /// [`mean_shift`] on a cloud the caller no longer needs: its Morton-ordered copy replaces it, so a
 /// pipeline holds one copy of the input, not two.
 pub fn mean_shift_owned(cloud: PointCloud, params: &MeanShiftParams) -> MeanShiftResult {
-    let order = crate::spatial_order::morton_order(&cloud.positions);
+    mean_shift_owned_counting(cloud, params, &AtomicUsize::new(0))
+}
+
+/// [`mean_shift_owned`], adding one to `moved` as each sample finishes its shift (eqs. 3.8–3.10), so
+/// a caller can show how far it is (the shift is most of the time; `moved` reaches the cloud's size).
+pub fn mean_shift_owned_counting(cloud: PointCloud, params: &MeanShiftParams, moved: &AtomicUsize) -> MeanShiftResult {
+    let order = crate::fuse::spatial_order::morton_order(&cloud.positions);
     let ordered = cloud.select(&order);
     drop(cloud);
-    in_input_order(mean_shift_in_order(&ordered, params), &order)
+    in_input_order(mean_shift_in_order(&ordered, params, Some(moved)), &order)
 }
 
 /// `kept` back in the input's order from the Morton order `order` the fusion ran in.
@@ -323,7 +330,7 @@ fn in_input_order(mut result: MeanShiftResult, order: &[usize]) -> MeanShiftResu
     result
 }
 
-fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShiftResult {
+fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams, moved: Option<&AtomicUsize>) -> MeanShiftResult {
     let mut report = MeanShiftReport { points_in: cloud.len(), ..Default::default() };
     if cloud.len() < params.k.max(params.density_k) + 1 {
         report.points_out = cloud.len();
@@ -364,6 +371,9 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams) -> MeanShif
     let (moved, colours): (Vec<Moved>, Vec<[f32; 3]>) = (0..cloud.len())
         .into_par_iter()
         .map(|i| {
+            if let Some(c) = moved {
+                c.fetch_add(1, Ordering::Relaxed);
+            }
             let mut p = cloud.positions[i];
             // The kernels are frozen per sample (as eq. 3.6 freezes Φ): re-choosing them every step makes
             // the field discontinuous and the samples oscillate instead of converging.

@@ -6,7 +6,7 @@
 //! The seed of each connected part is its highest point (largest z), turned to face +z: the top of
 //! an object standing on a turntable faces up.
 
-use crate::normals::PointTree;
+use crate::kd_tree::PointTree;
 use rayon::prelude::*;
 use rig::math::{Point3, Vector3};
 use std::cmp::Reverse;

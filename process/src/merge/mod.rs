@@ -3,6 +3,8 @@
 //! came from.
 
 pub mod object_top;
+/// The views merged and registered, and the pose that places each.
+pub mod views;
 
 use rig::math::{Isometry3, Real, Vector3};
 use rig::{PointCloud, RangeGrid, SparseView};

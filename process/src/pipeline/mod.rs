@@ -18,17 +18,18 @@ mod report;
 mod run;
 pub mod stages;
 pub mod volume;
+pub mod watch;
 
 pub use report::{GridReport, LaserViewReport, ProcessReport, REPORT_SCHEMA_VERSION, Section, StageRow, ViewReport};
 pub use run::{process_scan, register_processed};
 
-use crate::laser_line::LaserParams;
-use crate::placement::CropParams;
+use crate::merge::CropParams;
 use crate::reconstruct::closing::CloseParams;
-use crate::register_scan::RegisterParams;
+use crate::register::register_scan::RegisterParams;
 use crate::remesh::RemeshParams;
-use crate::structured_light::DecodeParams;
 use crate::triangulate::TriangulateParams;
+use crate::triangulate::laser_line::LaserParams;
+use decode::structured_light::DecodeParams;
 use rig::math::Real;
 use serde::{Deserialize, Serialize};
 use stages::{DenoiseStage, FinishParams, FuseParams, ReconstructParams};

@@ -4,9 +4,9 @@
 
 use super::stages::{FuseReport, MergeReport, RegisterReport};
 use crate::denoise::DenoiseReport;
-use crate::laser_line::LineReport;
 use crate::remesh::RemeshReport;
-use crate::structured_light::DecodeReport;
+use crate::triangulate::laser_line::LineReport;
+use decode::structured_light::DecodeReport;
 use rig::Method;
 use rig::math::Real;
 use serde::{Deserialize, Serialize};

@@ -4,15 +4,16 @@ use super::layout::{self, Layout};
 use super::lock::Lock;
 use super::records::{Decision, Fingerprint, Hash, Records};
 use super::report::{GridReport, LaserViewReport, ProcessReport, REPORT_SCHEMA_VERSION, Section, ViewReport};
-use super::stages::{self, ViewData, ViewGrid};
+use super::stages;
 use super::{ProcessParams, Progress, Stage};
 use crate::Error;
-use crate::laser_line::{Background, RowWindows, extract_line, lit_side_windows, triangulate_line};
-use crate::placement::CropParams;
-use crate::placement::object_top::TopParams;
-use crate::projector_map::ProjectorMap;
-use crate::register_scan::ViewPose;
+use crate::merge::CropParams;
+use crate::merge::object_top::TopParams;
+use crate::merge::views::{ViewData, ViewGrid};
+use crate::register::register_scan::ViewPose;
 use crate::triangulate::Triangulator;
+use crate::triangulate::laser_line::{Background, RowWindows, extract_line, lit_side_windows, triangulate_line};
+use decode::projector_map::ProjectorMap;
 use rayon::prelude::*;
 use rig::image::{Image8, ImageTransform};
 use rig::math::Real;
@@ -697,7 +698,7 @@ fn run_view(o: &Out, cx: &ViewCx, v: usize) -> Result<ViewDone, Error> {
                     let refs: Vec<(Pattern, &Image8)> = imgs.iter().map(|(p, i)| (*p, i)).collect();
                     // Frame checks name the scan's files; forced, their failures become warnings.
                     let names: Vec<String> = view.frames.iter().map(|f| f.file.clone()).collect();
-                    let dp = crate::structured_light::DecodeParams { force: params.force, ..params.decode };
+                    let dp = decode::structured_light::DecodeParams { force: params.force, ..params.decode };
                     let (map, mut dr) = stages::decode(&refs, (pw, ph), &dp).map_err(|source| {
                         let source = match source {
                             stages::StageError::Decode(e) => stages::StageError::Decode(e.name_frames(&names)),
@@ -1083,8 +1084,14 @@ fn scan_stages(
                 Some(c) => c,
                 None => rig::read_cloud(&o.path(cloud_name))?,
             };
-            let (result, fr) =
-                stages::fuse(input, &params.fuse).map_err(|source| Error::Stage { stage: Stage::Fuse, source })?;
+            // Progress from inside: the samples that have finished their shift, out of all of them.
+            let (total, fp_params) = (input.len(), &params.fuse);
+            let (result, fr) = super::watch::watched(
+                total,
+                |moved| stages::fuse_counting(input, fp_params, moved),
+                |done, total| progress(Stage::Fuse, done, total),
+            )
+            .map_err(|source| Error::Stage { stage: Stage::Fuse, source })?;
             let (fused, hash) = o.put_cloud(layout::FUSED, &result.cloud, fp, &fr, true)?;
             report.fuse = Some(stage_section(&decision, t.elapsed().as_secs_f64(), fr));
             (hash, Some(fused))
@@ -1269,8 +1276,14 @@ fn scan_stages(
                 Some(m) => m,
                 None => rig::read_mesh(&o.path(layout::MESH))?.triangulate(),
             };
-            let (quads, rr) = stages::remesh(&input, &params.remesh)
-                .map_err(|source| Error::Stage { stage: Stage::Remesh, source })?;
+            // Progress from inside: the remesh's phases (fields and streamlines, quads, quality).
+            let rp = &params.remesh;
+            let (quads, rr) = super::watch::watched(
+                crate::remesh::quad_remesh::REMESH_PHASES,
+                |phases| stages::remesh_counting(&input, rp, phases),
+                |done, total| progress(Stage::Remesh, done, total),
+            )
+            .map_err(|source| Error::Stage { stage: Stage::Remesh, source })?;
             let hash = o.put(layout::QUADS, &rig::obj::mesh_to_bytes(&quads), fp, &rr)?;
             report.remesh = Some(stage_section(&decision, t.elapsed().as_secs_f64(), rr));
             (hash, Some(quads))
@@ -1296,7 +1309,7 @@ pub fn register_processed(
     scan: &Path,
     processed: &Path,
     crop: &CropParams,
-    params: &crate::register_scan::RegisterParams,
+    params: &crate::register::register_scan::RegisterParams,
 ) -> Result<(PointCloud, Vec<ViewPose>, stages::RegisterReport), Error> {
     let manifest = Manifest::read(scan)?;
     let rig_path = Manifest::inside(scan, &manifest.rig, "rig")?;

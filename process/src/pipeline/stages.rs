@@ -5,21 +5,22 @@
 //! files for identical inputs.
 
 use crate::denoise::{DenoiseError, DenoiseParams, DenoiseReport};
-use crate::grid_normals::estimate_normals;
-use crate::icp::IcpError;
+use crate::fuse::mean_shift::{MeanShiftParams, MeanShiftReport};
 use crate::kd_tree::PointTree;
-use crate::lasers::{LaserAlignParams, LasersReport};
-use crate::mean_shift::{MeanShiftParams, MeanShiftReport};
-use crate::multiview::MultiViewReport;
-use crate::placement::{CropParams, place_sparse, place_view};
+use crate::merge::views::{ViewData, ViewGrid, turntable_pose};
+use crate::merge::{CropParams, place_sparse, place_view};
 use crate::reconstruct::adfft::{AdFftParams, AdFftReport, reconstruct_adfft};
 pub use crate::reconstruct::base::{Base, BaseReport};
 use crate::reconstruct::global_fft::{FftParams, FftReport, ReconstructError, reconstruct_fft_in};
 pub use crate::reconstruct::trim::TrimReport;
-use crate::register_scan::{Refused, RegisterParams, Tolerance, ViewPose, register_grids};
+use crate::register::icp::IcpError;
+use crate::register::lasers::{LaserAlignParams, LasersReport};
+use crate::register::multiview::MultiViewReport;
+use crate::register::register_scan::{Refused, RegisterParams, Tolerance, ViewPose, register_grids};
 use crate::remesh::{RemeshError, RemeshParams, RemeshReport};
+use crate::triangulate::grid_normals::estimate_normals;
 use rig::math::{Isometry3, Point3, Real, Vector3};
-use rig::{PointCloud, PolyMesh, RangeGrid, SparseView, TriMesh, TurntableAxis};
+use rig::{PointCloud, PolyMesh, RangeGrid, TriMesh, TurntableAxis};
 use serde::{Deserialize, Serialize};
 
 /// Why a stage could not run on its input.
@@ -28,7 +29,7 @@ use serde::{Deserialize, Serialize};
 pub enum StageError {
     /// The frames cannot be decoded.
     #[error(transparent)]
-    Decode(#[from] crate::structured_light::DecodeError),
+    Decode(#[from] decode::structured_light::DecodeError),
     /// A projector map of another size than the rig's camera.
     #[error(
         "the frames are {}×{} pixels but the rig's camera is {}×{}: the rig does not belong to these frames \
@@ -96,9 +97,9 @@ pub enum StageError {
         /// The smallest spacing accepted.
         smallest: Real,
     },
-    /// A parameter outside what the stage can use ([`crate::limits`]).
+    /// A parameter outside what the stage can use (`process::limits`).
     #[error(transparent)]
-    Param(#[from] crate::limits::ParamError),
+    Param(#[from] rig::limits::ParamError),
     /// Denoising refused the grid.
     #[error(transparent)]
     Denoise(#[from] DenoiseError),
@@ -128,9 +129,9 @@ pub enum StageError {
 pub fn decode(
     frames: &[(rig::Pattern, &rig::image::Image8)],
     projector_px: (u32, u32),
-    params: &crate::structured_light::DecodeParams,
-) -> Result<(crate::ProjectorMap, crate::structured_light::DecodeReport), StageError> {
-    Ok(crate::structured_light::decode_view(frames, projector_px.0, projector_px.1, params)?)
+    params: &decode::structured_light::DecodeParams,
+) -> Result<(crate::ProjectorMap, decode::structured_light::DecodeReport), StageError> {
+    Ok(decode::structured_light::decode_view(frames, projector_px.0, projector_px.1, params)?)
 }
 
 /// Triangulates a decoded view into a range grid in the camera frame (mm) with grid normals: the
@@ -184,37 +185,6 @@ pub fn denoise(
     Ok((clean, report))
 }
 
-/// What a view measured: a range grid (structured light: a point per pixel) or a sparse view (a
-/// laser line: a point per row).
-#[derive(Debug, Clone, Copy)]
-pub enum ViewData<'a> {
-    /// A dense range grid.
-    Grid(&'a RangeGrid),
-    /// Points with their pixels.
-    Sparse(&'a SparseView),
-}
-
-/// One view to merge or register: its index, turntable angle (degrees) and what it measured (camera
-/// frame, mm).
-#[derive(Debug, Clone, Copy)]
-pub struct ViewGrid<'a> {
-    /// View index (kept as the points' `view_id`).
-    pub view: usize,
-    /// Turntable angle, degrees, counter-clockwise seen from above.
-    pub angle_deg: Real,
-    /// The laser whose line this is (a laser scan has one per view and laser).
-    pub laser: Option<usize>,
-    /// The measurements.
-    pub data: ViewData<'a>,
-}
-
-impl<'a> ViewGrid<'a> {
-    /// A view of a range grid.
-    pub fn grid(view: usize, angle_deg: Real, grid: &'a RangeGrid) -> Self {
-        ViewGrid { view, angle_deg, laser: None, data: ViewData::Grid(grid) }
-    }
-}
-
 /// What merging did.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct MergeReport {
@@ -239,11 +209,6 @@ pub const SENSOR_NORMAL_NEIGHBOURS: usize = 48;
 /// from the lines beside it (see [`crate::normals::pca_normal_across_views`]).
 pub const SENSOR_NORMAL_PER_VIEW: usize = 16;
 
-/// The camera → object pose of a view at `angle_deg` (the identity without a turntable).
-pub fn turntable_pose(turntable: Option<&TurntableAxis>, angle_deg: Real) -> Isometry3 {
-    turntable.map(|t| t.object_from_camera(angle_deg)).unwrap_or_else(Isometry3::identity)
-}
-
 /// Gives every point of a merged cloud without a normal (zero, or no normals at all) the PCA normal
 /// of its [`SENSOR_NORMAL_NEIGHBOURS`] neighbours, turned toward the camera of its view (`centres`:
 /// each view's camera centre in the object frame, by view id). Returns how many it filled.
@@ -256,7 +221,7 @@ pub fn fill_normals(cloud: &mut PointCloud, centres: &std::collections::HashMap<
     if missing.is_empty() {
         return 0;
     }
-    let tree = crate::normals::PointTree::new(&cloud.positions);
+    let tree = crate::kd_tree::PointTree::new(&cloud.positions);
     let filled: Vec<Vector3> = missing
         .par_iter()
         .map(|&i| {
@@ -304,7 +269,7 @@ fn merge_at(views: &[ViewGrid], poses: &[Isometry3], crop: &CropParams) -> (Poin
         })
         .collect();
     let mut report = MergeReport { placed_points: placed.iter().map(|c| c.len()).collect(), ..Default::default() };
-    let mut cloud = crate::placement::merge(placed);
+    let mut cloud = crate::merge::merge(placed);
     let centres = views.iter().zip(poses).map(|(v, pose)| (v.view as u32, pose * Point3::origin())).collect();
     report.sensor_normals = fill_normals(&mut cloud, &centres);
     report.points = cloud.len();
@@ -411,7 +376,7 @@ pub fn register(
 }
 
 /// Registers a laser scan: each laser's lines, placed by the turntable, form one cloud, and every
-/// laser's cloud is aligned with the reference laser's ([`crate::lasers`]); the lines are then merged
+/// laser's cloud is aligned with the reference laser's ([`crate::register::lasers`]); the lines are then merged
 /// again at their corrected placements, cropped like [`merge`]. A correction beyond the tolerance is
 /// not applied but listed as refused. With lines of fewer than two lasers (a laser whose frames gave
 /// nothing) there is nothing to align: the lines are merged as the turntable placed them.
@@ -431,7 +396,7 @@ pub fn register_lasers(
             merge_at(&lines, &poses, crop).0
         })
         .collect();
-    let noise = crate::lasers::line_noise(views.iter().filter_map(|v| match v.data {
+    let noise = crate::register::lasers::line_noise(views.iter().filter_map(|v| match v.data {
         ViewData::Sparse(s) => Some((&s.points[..], &s.pixels[..])),
         ViewData::Grid(_) => None,
     }))
@@ -441,7 +406,7 @@ pub fn register_lasers(
         prior: params.refine.prior,
         reach_mm: LASER_GAP_REACH * params.refine.icp.min_distance,
     };
-    let (mut corrections, mut lr) = crate::lasers::align_lasers(&clouds, noise, &align)?;
+    let (mut corrections, mut lr) = crate::register::lasers::align_lasers(&clouds, noise, &align)?;
     let mut refused = Vec::new();
     for a in &lr.lasers {
         if !params.tolerance.allows(a.rotation_deg, a.shift_mm) {
@@ -547,16 +512,26 @@ impl Fused {
 
 /// Fuses a cloud (see [`FuseParams`]).
 pub fn fuse(cloud: PointCloud, params: &FuseParams) -> Result<(Fused, FuseReport), StageError> {
+    fuse_counting(cloud, params, &std::sync::atomic::AtomicUsize::new(0))
+}
+
+/// [`fuse`], counting in `moved` the samples that have finished their shift (up to the cloud's size),
+/// for a progress display ([`super::watch`]).
+pub fn fuse_counting(
+    cloud: PointCloud,
+    params: &FuseParams,
+    moved: &std::sync::atomic::AtomicUsize,
+) -> Result<(Fused, FuseReport), StageError> {
     check_fusable(cloud.borrowed(), params)?;
     let had_normals = cloud.normals.is_some();
     // Owned: fusion's Morton-ordered copy replaces the input instead of sitting beside it.
-    fused(crate::mean_shift::mean_shift_owned(cloud, &params.mean_shift), had_normals, params)
+    fused(crate::fuse::mean_shift::mean_shift_owned_counting(cloud, &params.mean_shift, moved), had_normals, params)
 }
 
 /// [`fuse`] of a borrowed cloud (a caller's arrays): its Morton-ordered working copy is the only one.
 pub fn fuse_borrowed(cloud: rig::CloudRef<'_>, params: &FuseParams) -> Result<(Fused, FuseReport), StageError> {
     check_fusable(cloud, params)?;
-    fused(crate::mean_shift::mean_shift(cloud, &params.mean_shift), cloud.normals.is_some(), params)
+    fused(crate::fuse::mean_shift::mean_shift(cloud, &params.mean_shift), cloud.normals.is_some(), params)
 }
 
 fn check_fusable(cloud: rig::CloudRef<'_>, params: &FuseParams) -> Result<(), StageError> {
@@ -571,14 +546,14 @@ fn check_fusable(cloud: rig::CloudRef<'_>, params: &FuseParams) -> Result<(), St
 
 /// Fusion's result oriented where the input had no normals, and its report.
 fn fused(
-    mut result: crate::mean_shift::MeanShiftResult,
+    mut result: crate::fuse::mean_shift::MeanShiftResult,
     had_normals: bool,
     params: &FuseParams,
 ) -> Result<(Fused, FuseReport), StageError> {
     let mut oriented_parts = None;
     if !had_normals && let Some(normals) = result.cloud.normals.as_mut() {
         oriented_parts =
-            Some(crate::orient::orient_by_spanning_tree(&result.cloud.positions, normals, params.orient_k));
+            Some(crate::fuse::orient::orient_by_spanning_tree(&result.cloud.positions, normals, params.orient_k));
     }
     let r = result.report;
     let report = FuseReport { points_removed: r.strays + r.outliers_removed, mean_shift: r, oriented_parts };
@@ -851,13 +826,23 @@ fn check_finite(cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
 
 /// A quad mesh of a triangle mesh (ch. 6).
 pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, RemeshReport), StageError> {
+    remesh_counting(mesh, params, &std::sync::atomic::AtomicUsize::new(0))
+}
+
+/// [`remesh`], counting its phases in `phases` (up to
+/// [`REMESH_PHASES`](crate::remesh::quad_remesh::REMESH_PHASES)) for a progress display ([`super::watch`]).
+pub fn remesh_counting(
+    mesh: &TriMesh,
+    params: &RemeshParams,
+    phases: &std::sync::atomic::AtomicUsize,
+) -> Result<(PolyMesh, RemeshReport), StageError> {
     params.validate()?;
     if let (Some(spacing), Some(b)) = (params.spacing, mesh.bounding_box()) {
         let diagonal = b.diagonal();
         let default = crate::remesh::quad_remesh::DEFAULT_SPACING * diagonal;
         // Quads grow with (default / spacing)²: 50× finer is 2,500× the faces of the default remesh.
-        if spacing < default / MAX_SPACING_REFINEMENT {
-            let smallest = default / MAX_SPACING_REFINEMENT;
+        if spacing < default / crate::remesh::quad_remesh::MAX_SPACING_RATIO {
+            let smallest = default / crate::remesh::quad_remesh::MAX_SPACING_RATIO;
             return Err(StageError::SpacingTooSmall { spacing, diagonal, ratio: default / spacing, smallest });
         }
         // Streamlines farther apart than half the mesh's size cross it once or never: no quads.
@@ -868,7 +853,7 @@ pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, Remesh
             });
         }
     }
-    let (mut quads, mut report) = crate::remesh::remesh(mesh, params)?;
+    let (mut quads, mut report) = crate::remesh::quad_remesh::remesh_counting(mesh, params, phases)?;
     if quads.face_count() == 0 {
         return Err(StageError::Implausible {
             what: format!("the remesh of {} triangles has no faces", mesh.faces.len()),
@@ -951,9 +936,6 @@ pub fn grid_colours(grid: &RangeGrid, texture: &rig::image::Image8) -> Option<Ve
             .collect(),
     )
 }
-
-/// How much finer than the default a remesh spacing may be.
-pub const MAX_SPACING_REFINEMENT: Real = crate::limits::MAX_SPACING_RATIO;
 
 /// The registered poses as `registered.poses.json` holds them.
 pub fn poses_json(poses: &[ViewPose]) -> Vec<u8> {

@@ -4,9 +4,9 @@
 //! merge's report (`merge.volume` in report.json) and named in a warning: points are never dropped
 //! in silence, and a ring of stray light over the object cannot reach the mesh as a lid.
 
-use super::stages::{ViewData, ViewGrid, turntable_pose};
-use crate::placement::CropParams;
-use crate::placement::object_top::{ObjectTop, TopParams, object_top};
+use crate::merge::CropParams;
+use crate::merge::object_top::{ObjectTop, TopParams, object_top};
+use crate::merge::views::{ViewData, ViewGrid, turntable_pose};
 use rig::TurntableAxis;
 use rig::math::{Point3, Real};
 use serde::{Deserialize, Serialize};

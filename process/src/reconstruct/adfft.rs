@@ -25,7 +25,7 @@ use super::global_fft::{Cube, FftReport, area_weights, bounding_cube, indicator,
 use super::marching_cubes::{GridFrame, marching_cubes, marching_cubes_by_plane};
 use super::mesh_distance::MeshDistance;
 use super::prune::prune_small_components;
-use crate::normals::PointTree;
+use crate::kd_tree::PointTree;
 use rayon::prelude::*;
 use rig::TriMesh;
 use rig::math::{Point3, Real, Vector3};

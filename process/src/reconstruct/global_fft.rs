@@ -12,7 +12,7 @@
 
 use super::fft3::RealFft3;
 use super::marching_cubes::{GridFrame, marching_cubes};
-use crate::normals::PointTree;
+use crate::kd_tree::PointTree;
 use rayon::prelude::*;
 use rig::TriMesh;
 use rig::math::{Point3, Real, Vector3};

@@ -19,7 +19,7 @@ pub fn prune_small_components(mesh: &mut TriMesh, min_fraction: Real) -> usize {
 /// Returns the number removed.
 pub fn prune_components_away_from(
     mesh: &mut TriMesh,
-    samples: &crate::normals::PointTree,
+    samples: &crate::kd_tree::PointTree,
     max_distance: Real,
 ) -> usize {
     let near: Vec<bool> = mesh.vertices.iter().map(|p| samples.nearest(p).1 <= max_distance * max_distance).collect();

@@ -7,7 +7,7 @@
 //! normal `n`, the residual `r = (p − q)·n` changes by `(p × n)·ω + n·t` under a small rotation ω and
 //! translation t, a 6 × 6 weighted least-squares system.
 
-use crate::normals::PointTree;
+use crate::kd_tree::PointTree;
 use nalgebra::{Matrix6, Vector6};
 use rayon::prelude::*;
 use rig::math::{Isometry3, Point3, Real, Translation3, UnitQuaternion, Vector3};

@@ -12,7 +12,7 @@
 //! alignment; a gap beyond the lines' own noise, before or after, is what [`LaserAlignment::disagrees`]
 //! reports.
 
-use crate::icp::{IcpError, IcpParams, IcpReport, IcpTarget, PosePrior, icp_near};
+use crate::register::icp::{IcpError, IcpParams, IcpReport, IcpTarget, PosePrior, icp_near};
 use rig::PointCloud;
 use rig::math::{Isometry3, Point3, Real, Vector3};
 use serde::{Deserialize, Serialize};

@@ -4,7 +4,7 @@
 //! into a wrong pose together). Then every view is refined in turn against the union of the others near
 //! it, for a few rounds (fewer once a round moves nothing) — closing the 360° loop so that error does not accumulate along a chain.
 
-use crate::icp::{IcpError, IcpParams, IcpReport, IcpTarget, PosePrior, icp_near};
+use crate::register::icp::{IcpError, IcpParams, IcpReport, IcpTarget, PosePrior, icp_near};
 use rig::math::{Isometry3, Point3, Real, Vector3};
 use serde::Serialize;
 

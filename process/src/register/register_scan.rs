@@ -1,11 +1,11 @@
 //! Registering a processed scan: every view's range grid (denoised where available) refined from its
-//! turntable pose by multi-view ICP ([`crate::multiview`]), then placed, cropped and merged again. What
+//! turntable pose by multi-view ICP ([`crate::register::multiview`]), then placed, cropped and merged again. What
 //! `scanrig register` runs on the output of `scanrig process`.
 
-use crate::grid_normals;
-use crate::icp::IcpError;
-use crate::multiview::{MultiViewParams, MultiViewReport, View, refine_views};
-use crate::placement::{CropParams, merge, place_view};
+use crate::merge::{CropParams, merge, place_view};
+use crate::register::icp::IcpError;
+use crate::register::multiview::{MultiViewParams, MultiViewReport, View, refine_views};
+use crate::triangulate::grid_normals;
 use rayon::prelude::*;
 use rig::math::{Isometry3, Real};
 use rig::{PointCloud, RangeGrid, TurntableAxis};

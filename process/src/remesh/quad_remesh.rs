@@ -31,6 +31,10 @@ use std::time::Instant;
 /// a compact shape, fine enough to stay within 0.5 % of the input on a machined part like fandisk.
 pub const DEFAULT_SPACING: Real = 0.01;
 
+/// How many times finer than the default (1 % of the diagonal) a remeshing spacing may be: quads grow
+/// with the square, so 10× finer is already 100× the default remesh's faces.
+pub const MAX_SPACING_RATIO: Real = 10.0;
+
 /// Settings of [`remesh`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct RemeshParams {
@@ -139,8 +143,23 @@ pub struct Streamlines {
 
 /// Remeshes `mesh` into quads (see the module notes).
 pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, RemeshReport), RemeshError> {
+    remesh_counting(mesh, params, &std::sync::atomic::AtomicUsize::new(0))
+}
+
+/// The phases [`remesh_counting`] counts: the fields and their streamlines, the quads between them,
+/// the quality measured against the input.
+pub const REMESH_PHASES: usize = 3;
+
+/// [`remesh`], adding one to `phases` as each of its [`REMESH_PHASES`] ends, for a progress display.
+pub fn remesh_counting(
+    mesh: &TriMesh,
+    params: &RemeshParams,
+    phases: &std::sync::atomic::AtomicUsize,
+) -> Result<(PolyMesh, RemeshReport), RemeshError> {
+    let next = || phases.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let mut report = RemeshReport::default();
     let traced = streamlines(mesh, params, &mut report)?;
+    next();
     let s = Surface::new(&traced.mesh);
     let t2 = Instant::now();
     let (mut out, graph) = quads_from_lines(&s, &traced.lines, &traced.on_boundary, 0.15 * report.spacing);
@@ -149,6 +168,7 @@ pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, Remesh
         (out, report.split) = split_polygons(&out);
     }
     report.seconds.quads = t2.elapsed().as_secs_f64();
+    next();
 
     let t3 = Instant::now();
     let diag = mesh.bounding_box().map_or(0.0, |b| (b.max - b.min).norm());
@@ -158,6 +178,7 @@ pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, Remesh
     report.quality.singularities =
         vertex_indices(&traced.mesh, &traced.grad).iter().filter(|i| i.is_some_and(|i| i.abs() > 0.5)).count();
     report.seconds.quality = t3.elapsed().as_secs_f64();
+    next();
     Ok((out, report))
 }
 

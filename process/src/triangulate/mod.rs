@@ -11,7 +11,7 @@
 pub mod grid_normals;
 pub mod laser_line;
 
-use crate::projector_map::ProjectorMap;
+use decode::projector_map::ProjectorMap;
 use rayon::prelude::*;
 use rig::math::{Point2, Point3, Real, Vector3};
 use rig::{LaserPlane, PinholeCamera, Projector, RangeGrid, Sensor};
@@ -191,7 +191,7 @@ impl Triangulator {
 
     /// Triangulates a decoded view into a range grid on the camera's pixel grid (camera frame, mm), with
     /// the decoding confidence and the camera centre as sensor. Normals are left to
-    /// [`crate::grid_normals`].
+    /// [`crate::triangulate::grid_normals`].
     pub fn triangulate(&self, map: &ProjectorMap, params: &TriangulateParams) -> RangeGrid {
         let (w, h) = (map.width, map.height);
         assert_eq!((w, h), (self.camera.width as usize, self.camera.height as usize), "map and camera sizes differ");

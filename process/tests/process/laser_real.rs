@@ -104,12 +104,13 @@ fn realistic_laser_frames_give_the_object_and_never_the_wall() {
     let volume = rig.working_volume().expect("the simulated rig knows its working volume");
     let frame = rig::image::read_image(&scan.join(&m.views[0].frames[0].file)).unwrap();
     let laser = &rig.lasers[0];
-    let lp = process::laser_line::LaserParams::default();
-    let windows = process::laser_line::working_volume_windows(&rig.camera, &laser.plane, &volume, 5.0);
-    let outside = |win: Option<&process::laser_line::RowWindows>| {
-        let bg = process::laser_line::Background::Estimated;
-        let (peaks, _) = process::laser_line::extract_line(&frame, bg, laser.colour, win, &lp, |_, _| true);
-        let line = process::laser_line::triangulate_line(&peaks, &rig.camera, &laser.plane);
+    let lp = process::triangulate::laser_line::LaserParams::default();
+    let windows = process::triangulate::laser_line::working_volume_windows(&rig.camera, &laser.plane, &volume, 5.0);
+    let outside = |win: Option<&process::triangulate::laser_line::RowWindows>| {
+        let bg = process::triangulate::laser_line::Background::Estimated;
+        let (peaks, _) =
+            process::triangulate::laser_line::extract_line(&frame, bg, laser.colour, win, &lp, |_, _| true);
+        let line = process::triangulate::laser_line::triangulate_line(&peaks, &rig.camera, &laser.plane);
         line.points.iter().filter(|p| !volume.contains(p, 5.0)).count()
     };
     let (unbounded, bounded) = (outside(None), outside(Some(&windows)));

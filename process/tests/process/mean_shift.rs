@@ -1,8 +1,9 @@
 //! Mean-shift fusion on the real bunny with salt-and-pepper outliers (issue 8's acceptance 3, the
 //! thesis's fig. 3.6 set-up).
 
-use process::mean_shift::{MeanShiftParams, mean_shift};
-use process::normals::{PointTree, pca_normals};
+use process::fuse::mean_shift::{MeanShiftParams, mean_shift};
+use process::kd_tree::PointTree;
+use process::normals::pca_normals;
 use rig::PointCloud;
 use rig::math::{Point3, Real, UnitQuaternion, Vector3};
 

@@ -1,6 +1,7 @@
 //! Issue 9: global FFT reconstruction against analytic shapes, fertility and the real bunny.
 
-use process::normals::{PointTree, pca_normals};
+use process::kd_tree::PointTree;
+use process::normals::pca_normals;
 use process::reconstruct::adfft::{AdFftParams, reconstruct_adfft};
 use process::reconstruct::global_fft::{FftParams, reconstruct_fft};
 use rig::math::{Point3, Real, Vector3};

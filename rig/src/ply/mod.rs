@@ -28,7 +28,8 @@ pub use write::{
     write_mesh, write_range_grid,
 };
 
-use crate::error::{Error, ParseError, read_bytes};
+use crate::error::{Error, ParseError};
+use crate::run_files::read_bytes;
 use crate::{PointCloud, PolyMesh, RangeGrid, SparseView};
 use std::path::Path;
 

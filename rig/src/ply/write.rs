@@ -1,8 +1,9 @@
 //! Writing PLY: binary little-endian by default, ASCII on request.
 
 use super::header::{Encoding, ScalarType};
-use crate::error::{Error, write_atomic};
+use crate::error::Error;
 use crate::math::{Point3, Vector3};
+use crate::run_files::write_atomic;
 use crate::{PointCloud, PolyMesh, RangeGrid, Sensor, SparseView};
 use rayon::prelude::*;
 use std::path::Path;
