@@ -84,7 +84,7 @@ pub fn guard_folders(scan: &Path, out: &Path) -> Result<()> {
 fn status<T>(s: &Section<T>) -> String {
     match s.reason.as_deref() {
         None => "reused".into(),
-        Some("not made yet") => format!("made in {:.1} s", s.seconds),
+        Some(process::pipeline::records::NOT_MADE_YET) => format!("made in {:.1} s", s.seconds),
         Some(why) => format!("made again in {:.1} s: {why}", s.seconds),
     }
 }

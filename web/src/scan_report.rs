@@ -208,7 +208,7 @@ fn summary(r: &ProcessReport, rig: Option<&Rig>, manifest: Option<&rig::Manifest
     // Points and seconds per stage, in pipeline order.
     let view_points: usize = r.views.iter().map(|v| v.points).sum();
     // Wall time: views run side by side, so their own seconds add up to more than was waited.
-    let view_seconds: Real = r.views_seconds.unwrap_or_else(|| r.views.iter().map(|v| v.seconds).sum());
+    let view_seconds = r.views_wall_seconds();
     let mut stages: Vec<(&str, String, Real, &str)> = vec![("views", count(view_points), view_seconds, "points")];
     let status = |reused: bool| if reused { "reused" } else { "ran" };
     if let Some(s) = &r.merge {

@@ -295,6 +295,9 @@ pub struct MeanShiftResult {
     pub report: MeanShiftReport,
 }
 
+/// How many samples [`mean_shift_owned_counting`] adds to its counter at once.
+const PROGRESS_BLOCK: usize = 1024;
+
 /// Fuses a cloud (see the module doc).
 pub fn mean_shift<'a>(cloud: impl Into<rig::CloudRef<'a>>, params: &MeanShiftParams) -> MeanShiftResult {
     let cloud = cloud.into();
@@ -311,8 +314,9 @@ pub fn mean_shift_owned(cloud: PointCloud, params: &MeanShiftParams) -> MeanShif
     mean_shift_owned_counting(cloud, params, &AtomicUsize::new(0))
 }
 
-/// [`mean_shift_owned`], adding one to `moved` as each sample finishes its shift (eqs. 3.8–3.10), so
-/// a caller can show how far it is (the shift is most of the time; `moved` reaches the cloud's size).
+/// [`mean_shift_owned`], adding to `moved` as the samples start their shift (eqs. 3.8–3.10), a block at
+/// a time, so a caller can show how far it is (the shift is most of the time; `moved` reaches the
+/// cloud's size).
 pub fn mean_shift_owned_counting(cloud: PointCloud, params: &MeanShiftParams, moved: &AtomicUsize) -> MeanShiftResult {
     let order = crate::fuse::spatial_order::morton_order(&cloud.positions);
     let ordered = cloud.select(&order);
@@ -371,8 +375,11 @@ fn mean_shift_in_order(cloud: &PointCloud, params: &MeanShiftParams, moved: Opti
     let (moved, colours): (Vec<Moved>, Vec<[f32; 3]>) = (0..cloud.len())
         .into_par_iter()
         .map(|i| {
-            if let Some(c) = moved {
-                c.fetch_add(1, Ordering::Relaxed);
+            // Counted a block at a time: one shared atomic per sample would bounce between cores.
+            if let Some(c) = moved
+                && i % PROGRESS_BLOCK == 0
+            {
+                c.fetch_add(PROGRESS_BLOCK.min(cloud.len() - i), Ordering::Relaxed);
             }
             let mut p = cloud.positions[i];
             // The kernels are frozen per sample (as eq. 3.6 freezes Φ): re-choosing them every step makes

@@ -17,6 +17,9 @@ pub const RECORDS_NAME: &str = "stages.json";
 /// Its layout version.
 pub const RECORDS_FORMAT: u32 = 1;
 
+/// The reason a stage runs when its output does not exist yet (a first run).
+pub const NOT_MADE_YET: &str = "not made yet";
+
 /// A 128-bit content hash (XXH3), as 32 hex digits.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub struct Hash(pub u128);
@@ -183,7 +186,7 @@ impl Decider {
             return Decision::Run(if self.path.exists() {
                 "no record of how the file was made".into()
             } else {
-                "not made yet".into()
+                NOT_MADE_YET.into()
             });
         };
         if let Some(why) = now.difference(&record.fingerprint) {

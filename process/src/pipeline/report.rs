@@ -152,11 +152,17 @@ pub struct StageRow {
 }
 
 impl ProcessReport {
+    /// The wall time of the views' stages: `views_seconds`, or for reports written before it was kept,
+    /// the sum of the views' own seconds (more than was waited, as views run side by side).
+    pub fn views_wall_seconds(&self) -> Real {
+        self.views_seconds.unwrap_or_else(|| self.views.iter().map(|v| v.seconds).sum())
+    }
+
     /// The [`StageRow`]s of the sections present.
     pub fn stage_rows(&self) -> Vec<StageRow> {
         let mut rows = vec![StageRow {
             stage: "views".into(),
-            seconds: self.views_seconds.unwrap_or_else(|| self.views.iter().map(|v| v.seconds).sum()),
+            seconds: self.views_wall_seconds(),
             peak_mb: self.views_peak_mb,
             points_in: None,
             points_out: Some(self.views.iter().map(|v| v.points).sum()),

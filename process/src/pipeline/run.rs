@@ -1084,7 +1084,7 @@ fn scan_stages(
                 Some(c) => c,
                 None => rig::read_cloud(&o.path(cloud_name))?,
             };
-            // Progress from inside: the samples that have finished their shift, out of all of them.
+            // Progress from inside: the samples whose shift has begun, out of all of them.
             let (total, fp_params) = (input.len(), &params.fuse);
             let (result, fr) = super::watch::watched(
                 total,

@@ -515,7 +515,7 @@ pub fn fuse(cloud: PointCloud, params: &FuseParams) -> Result<(Fused, FuseReport
     fuse_counting(cloud, params, &std::sync::atomic::AtomicUsize::new(0))
 }
 
-/// [`fuse`], counting in `moved` the samples that have finished their shift (up to the cloud's size),
+/// [`fuse`], counting in `moved` the samples whose shift has begun (up to the cloud's size),
 /// for a progress display ([`super::watch`]).
 pub fn fuse_counting(
     cloud: PointCloud,

@@ -72,7 +72,7 @@ pub const MAX_GAP_CELLS: Real = 4.0;
 
 impl LineSpacing {
     /// The lines of `placed` (each a line's points in the object frame, inside the volume): each at
-    /// the median azimuth of its points. `None` for fewer than two lines.
+    /// the mean direction of its points about the axis. `None` for fewer than two lines.
     pub fn of(placed: &[Vec<Point3>]) -> Option<LineSpacing> {
         let median = |mut v: Vec<Real>| -> Option<Real> {
             if v.is_empty() {
@@ -114,7 +114,10 @@ impl LineSpacing {
         let cells = self.largest_gap_mm / cell;
         (cells > MAX_GAP_CELLS).then(|| {
             format!(
-                "mesh.ply: the laser lines lie up to {:.1}° apart around the axis ({:.1} mm at the object's median                  radius {:.0} mm), {cells:.0} times the mesh's {cell:.2} mm cell (--depth {depth}): between the lines                  the surface is not measured, and the mesh shows ribs along them; take more views (`scan --views`,                  `sim --views`) or reconstruct at a lower --depth",
+                "mesh.ply: the laser lines lie up to {:.1}° apart around the axis ({:.1} mm at the object's median \
+                 radius {:.0} mm), {cells:.0} times the mesh's {cell:.2} mm cell (--depth {depth}): between the lines \
+                 the surface is not measured, and the mesh shows ribs along them; take more views (`scan --views`, \
+                 `sim --views`) or reconstruct at a lower --depth",
                 self.largest_gap_deg, self.largest_gap_mm, self.radius_mm
             )
         })
@@ -317,6 +320,7 @@ mod tests {
         // 10.5 mm against a 0.5 mm cell: 21 cells, said naming the depth and the views; a 3 mm cell is fine.
         let w = s.warning(0.5, 8).unwrap();
         assert!(w.contains("20.0° apart") && w.contains("--depth 8") && w.contains("--views"), "{w}");
+        assert!(!w.contains("  "), "one sentence, single-spaced: {w}");
         assert!(s.warning(3.0, 8).is_none());
         // One line: no spacing; a full set 1° apart at 30 mm: 0.52 mm, under four 0.2 mm cells.
         assert!(LineSpacing::of(&lines[..1]).is_none());
