@@ -12,7 +12,8 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
     crate::outputs::plan(&[("INPUT", &args.input)], &[("--out", Some(&args.out))])?;
     let mut cloud = crate::inputs::read_cloud(&args.input)?;
     if args.close {
-        let (closed, r) = process::reconstruct::closing::close_openings(&cloud, &Default::default());
+        let (closed, r) =
+            stages::close(&cloud, &Default::default()).with_context(|| format!("closing {}", args.input.display()))?;
         for (what, cap) in [("base", r.bottom), ("top", r.top)] {
             if let Some(c) = cap {
                 eprintln!("closed the {what} at z = {:.3} with {} samples", c.z, c.points);
@@ -21,8 +22,8 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
         if let Some(b) = r.bottom.filter(|b| b.z != 0.0) {
             eprintln!(
                 "warning: {} does not start at z = 0, so its base was capped at z = {:.3}: --close is for clouds in a \
-                 turntable scan's object frame \
-             (z up, the platter at z = 0); elsewhere the caps may close the wrong sides",
+                 turntable scan's object frame (z up, the platter at z = 0); elsewhere the caps may close the wrong \
+                 sides",
                 args.input.display(),
                 b.z
             );
@@ -44,11 +45,17 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
     }
     let start = std::time::Instant::now();
     let context = || format!("reconstructing {}", args.input.display());
-    // One k-d tree for the area weights, the support check and the colours, as `process` does.
-    let tree = process::kd_tree::PointTree::new(&cloud.positions);
-    let (mesh, report) = stages::reconstruct_in(&cloud, &params, Some(&tree)).with_context(context)?;
-    let (mesh, finished) =
-        stages::finish(mesh, &cloud, &finish, in_frame.then_some(0.0), report.cell()).with_context(context)?;
+    // The mesh stage `process` runs, on this cloud: the platter plane where the cloud is in a
+    // turntable scan's object frame; no working volume's top (a file has none).
+    let mp = stages::MeshParams {
+        reconstruct: params,
+        finish,
+        platter_z: in_frame.then_some(0.0),
+        top_z: None,
+        force: args.force,
+    };
+    let made = stages::mesh(&cloud, &mp).with_context(context)?;
+    let (report, finished, mesh) = (&made.report.reconstruct, &made.report.finish, &made.mesh);
     if let Some(b) = finished.base {
         eprintln!(
             "base: cut at z = {} ({:?}; {} triangles below removed, {} in the cap; mesh {})",
@@ -65,12 +72,12 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
             t.removed, t.max_distance, t.holes
         );
     }
-    if let Some(w) = stages::check_support(&mesh, &cloud, &tree, args.force).with_context(context)? {
-        eprintln!("warning: {w}");
+    for w in &made.warnings {
+        eprintln!("warning: {}: {w}", args.out.display());
     }
     let seconds = start.elapsed().as_secs_f64();
-    rig::write_mesh(&args.out, &stages::mesh_for_output(&mesh, stages::mesh_colours(&mesh, &cloud, &tree)), &opts)?;
-    let t = topology(&mesh);
+    rig::write_mesh(&args.out, &made.output, &opts)?;
+    let t = topology(mesh);
     let peak = rig::memory::peak_resident_bytes();
     let mut o = std::io::stdout().lock();
     if args.json {
@@ -85,7 +92,7 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
         serde_json::to_writer_pretty(&mut o, &crate::outputs::versioned(&json))?;
         writeln!(o)?;
     } else {
-        let patches = match &report {
+        let patches = match report {
             ReconstructReport::Adfft(r) => format!(", {} patches", r.leaves()),
             ReconstructReport::Fft(_) => String::new(),
         };

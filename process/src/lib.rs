@@ -189,5 +189,5 @@ pub enum Error {
     },
     /// The output folder is in use.
     #[error(transparent)]
-    Lock(#[from] pipeline::lock::LockError),
+    Lock(#[from] rig::folder_lock::LockError),
 }

@@ -244,6 +244,20 @@ impl FinishParams {
     }
 }
 
+impl crate::pipeline::stages::MeshParams {
+    /// Checks the finish and the two heights the mesh is cut at (a NaN height would cut nothing or
+    /// everything, in silence).
+    pub fn validate(&self) -> Result<(), ParamError> {
+        self.finish.validate()?;
+        for (name, z) in [("platter_z", self.platter_z), ("top_z", self.top_z)] {
+            if let Some(z) = z.filter(|z| !z.is_finite()) {
+                return Err(bad(name, z, "must be a finite height (the cloud's units)"));
+            }
+        }
+        Ok(())
+    }
+}
+
 impl RemeshParams {
     /// Checks spacing, feature angle and weight alone (module table); the spacing is held against the
     /// mesh's size by the remesher.

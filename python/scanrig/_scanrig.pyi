@@ -53,8 +53,14 @@ def reconstruct(
     error: Optional[float] = None,
     smoothing_cells: Optional[float] = None,
     memory_budget_gb: Optional[float] = None,
+    platter_z: Optional[float] = None,
+    top_z: Optional[float] = None,
+    base: str = "flat",
+    trim: Optional[float] = None,
+    force: bool = False,
 ) -> tuple[_F64, npt.NDArray[np.int64], dict[str, Any]]:
-    """Watertight reconstruction (thesis ch. 5: FFT eqs. 5.16-5.17, AdFFT 5.3): (V, F, report)."""
+    """Watertight reconstruction (thesis ch. 5: FFT eqs. 5.16-5.17, AdFFT 5.3), finished as `process` does
+    (base cut at `platter_z`, cut at `top_z`, trim, support check): (V, F, report)."""
 
 def remesh(
     vertices: _F64,
@@ -150,6 +156,17 @@ def decode(
 
 def triangulate(map: _F64, rig: _Path) -> tuple[_Grid, dict[str, Any]]:
     """A projector map through the rig's camera and projector (eq. 2.3) into a range grid (mm)."""
+
+def laser_line(
+    frame: _Image,
+    rig: _Path,
+    *,
+    laser: int = 0,
+    off: Optional[_Image] = None,
+    texture: Optional[_Image] = None,
+    force: bool = False,
+) -> tuple[dict[str, Optional[np.ndarray]], dict[str, Any]]:
+    """One laser's line in one view (points in the camera frame, mm), as `process` makes a laser view."""
 
 def register(
     grids: list[_Grid], angles_deg: list[float], rig: _Path, *, force: bool = False

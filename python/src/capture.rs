@@ -1,7 +1,8 @@
 //! From frames to a range grid, and frames from the simulator: `simulate_view` (a view's frames in
 //! memory, with the truth), `simulate_scan` (a scan folder, as `scanrig sim`), `decode` (Gray code
 //! and phase shift into a projector map, as `scanrig decode`) and `triangulate` (a map into a range
-//! grid through the rig, eq. 2.3).
+//! grid through the rig, eq. 2.3) and `laser_line` (a laser frame into its line's points, as
+//! `scanrig process` makes a laser view).
 
 use crate::errors;
 use crate::grids::grid_out;
@@ -21,6 +22,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate_scan, m)?)?;
     m.add_function(wrap_pyfunction!(decode, m)?)?;
     m.add_function(wrap_pyfunction!(triangulate, m)?)?;
+    m.add_function(wrap_pyfunction!(laser_line, m)?)?;
     Ok(())
 }
 
@@ -316,4 +318,53 @@ fn triangulate<'py>(
     })?
     .map_err(errors::stage)?;
     Ok((grid_out(py, grid)?, report(py, &report_)?))
+}
+
+/// One laser's line in one view, as `scanrig process` makes a laser view
+/// (`views/view_NNN_laserK.ply`): the line's centre in each row of `frame` (H×W or H×W×3 uint8, as
+/// stored: turned here as the rig's `[image]` says) in the laser's colour, searched within the rig's
+/// working volume, each camera ray through one against laser `laser`'s plane (eq. 2.3). `off` is the
+/// same view with every laser off (none: the background is estimated from the frame), `texture` the
+/// view's colour frame. Returns (dict of points N×3 mm in the camera frame, pixels N×2, confidence N,
+/// colors N×3 uint8 or None; report).
+#[pyfunction]
+#[pyo3(signature = (frame, rig, *, laser=0, off=None, texture=None, force=false))]
+fn laser_line<'py>(
+    py: Python<'py>,
+    frame: &Bound<'py, PyAny>,
+    rig: PathBuf,
+    laser: usize,
+    off: Option<&Bound<'py, PyAny>>,
+    texture: Option<&Bound<'py, PyAny>>,
+    force: bool,
+) -> PyResult<(Bound<'py, PyDict>, Bound<'py, PyAny>)> {
+    let r = rig::Rig::read(&rig).map_err(errors::file)?;
+    if laser >= r.lasers.len() {
+        return Err(PyValueError::new_err(format!(
+            "laser: {laser}, but {} has {} [[lasers]] (0-based)",
+            rig.display(),
+            r.lasers.len()
+        )));
+    }
+    // As `process` reads a scan's frames: turned as the rig's [image] says.
+    let turn = |i: Image8| if r.image.is_identity() { i } else { i.transformed(&r.image) };
+    let on = turn(image_in(frame, "frame")?);
+    let off = off.filter(|o| !o.is_none()).map(|o| image_in(o, "off")).transpose()?.map(turn);
+    let texture = texture.filter(|t| !t.is_none()).map(|t| image_in(t, "texture")).transpose()?.map(turn);
+    let params = ::process::pipeline::ProcessParams::default().laser;
+    let (line, rep) = interruptible(py, move || {
+        use ::process::pipeline::stages;
+        let (windows, _) = stages::laser_windows(&r, &r.lasers[laser], &params, force)?;
+        let frames = stages::LaserFrames { on: &on, off: off.as_ref(), texture: texture.as_ref() };
+        stages::laser_line(&frames, &r.camera, (laser, &r.lasers[laser]), windows.as_ref(), &params)
+    })?
+    .map_err(errors::stage)?;
+    let d = PyDict::new(py);
+    let pixels: Vec<f32> = line.pixels.iter().flatten().copied().collect();
+    let n = line.points.len();
+    d.set_item("pixels", Array2::from_shape_vec((n, 2), pixels).expect("n×2").into_pyarray(py))?;
+    d.set_item("confidence", crate::arrays::vec_out(py, line.confidence))?;
+    d.set_item("colors", line.colors.map(|c| crate::arrays::colors_out(py, c)))?;
+    d.set_item("points", crate::arrays::points_out(py, line.points))?;
+    Ok((d, report(py, &rep)?))
 }

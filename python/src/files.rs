@@ -20,7 +20,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 
 /// What a reader could not keep, as Python `UserWarning`s (one per sentence, each naming the file):
 /// the same sentences the command line prints, so nothing is dropped in silence here either.
-fn warn_each(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
+pub(crate) fn warn_each(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
     let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
     for w in warnings {
         let message = std::ffi::CString::new(w.replace('\0', " ")).expect("NULs replaced");

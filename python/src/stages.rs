@@ -92,10 +92,13 @@ fn fuse<'py>(
 
 /// Watertight surface reconstruction from oriented points (thesis ch. 5): `method="fft"`, the
 /// global FFT solution of the Poisson equation for the indicator (eqs. 5.16–5.17) on a 2^depth
-/// grid, or `"adfft"`, local FFT solutions over an octree blended by a partition of unity (5.3).
-/// Returns (vertices, triangles, report).
+/// grid, or `"adfft"`, local FFT solutions over an octree blended by a partition of unity (5.3);
+/// then finished as `scanrig process` finishes its mesh, through the same stage (`stages::mesh`): the
+/// base cut at `platter_z` (`base`), the surface cut at `top_z`, `trim`, and the check that the data
+/// supports the mesh (an error unless `force`). What it warns of is a `UserWarning`. Returns
+/// (vertices, triangles, report).
 #[pyfunction]
-#[pyo3(signature = (points, normals, *, method="fft", depth=None, error=None, smoothing_cells=None, memory_budget_gb=None))]
+#[pyo3(signature = (points, normals, *, method="fft", depth=None, error=None, smoothing_cells=None, memory_budget_gb=None, platter_z=None, top_z=None, base="flat", trim=None, force=false))]
 #[allow(clippy::too_many_arguments)]
 fn reconstruct<'py>(
     py: Python<'py>,
@@ -106,6 +109,11 @@ fn reconstruct<'py>(
     error: Option<f64>,
     smoothing_cells: Option<f64>,
     memory_budget_gb: Option<f64>,
+    platter_z: Option<f64>,
+    top_z: Option<f64>,
+    base: &str,
+    trim: Option<f64>,
+    force: bool,
 ) -> PyResult<Meshed<'py, Bound<'py, PyArray2<i64>>>> {
     let xyz = Xyz::extract(points, "points")?;
     let nrm = Xyz::extract(normals, "normals")?;
@@ -145,13 +153,24 @@ fn reconstruct<'py>(
         }
         other => return Err(PyValueError::new_err(format!("method must be \"fft\" or \"adfft\", got {other:?}"))),
     };
-    let (rows, normal_rows) = (xyz.into_rows(points), nrm.into_rows(normals));
-    let (mesh, r) = interruptible(py, move || {
-        let cloud = rig::CloudRef { normals: Some(normal_rows.vectors()), ..rig::CloudRef::positions(rows.points()) };
-        stages::reconstruct(cloud, &params)
-    })?
-    .map_err(errors::stage)?;
-    Ok((arrays::points_out(py, mesh.vertices), arrays::triangles_out(py, &mesh.faces), report(py, &r)?))
+    let base = match base {
+        "flat" => stages::Base::Flat,
+        "open" => stages::Base::Open,
+        "closed" => stages::Base::Closed,
+        other => {
+            return Err(PyValueError::new_err(format!("base must be \"flat\", \"open\" or \"closed\", got {other:?}")));
+        }
+    };
+    let finish = stages::FinishParams { base, trim, ..Default::default() };
+    // The mesh stage `process` runs (`stages::mesh`): reconstruction, the base cut at the platter
+    // plane where one is given, the cut at the working volume's top, the trim, the support check.
+    let mp = stages::MeshParams { reconstruct: params, finish, platter_z, top_z, force };
+    let normals = Some(nrm.into_rows(normals).vectors().to_vec());
+    let cloud = PointCloud { normals, ..PointCloud::from_positions(xyz.into_rows(points).points().to_vec()) };
+    let made = interruptible(py, move || stages::mesh(&cloud, &mp))?.map_err(errors::stage)?;
+    crate::files::warn_each(py, &made.warnings)?;
+    let mesh = made.mesh;
+    Ok((arrays::points_out(py, mesh.vertices), arrays::triangles_out(py, &mesh.faces), report(py, &made.report)?))
 }
 
 /// Quad remeshing of a triangle mesh (thesis ch. 6): a harmonic field constrained by feature lines,

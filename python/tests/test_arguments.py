@@ -40,6 +40,7 @@ CALLS = [
     (scanrig.denoise, [GRID], {}),
     (scanrig.decode, [[np.zeros((8, 8), dtype=np.uint8)] * 42], {"projector": (1024, 768)}),
     (scanrig.triangulate, [np.zeros((8, 8, 3)), "no-such-rig.toml"], {}),
+    (scanrig.laser_line, [np.zeros((8, 8), dtype=np.uint8), "no-such-rig.toml"], {}),
     (scanrig.register, [[GRID, GRID], [0.0, 90.0], "no-such-rig.toml"], {}),
     (scanrig.write_cloud, ["/nonexistent/dir/x.ply", GOOD3], {}),
     (scanrig.write_mesh, ["/nonexistent/dir/x.ply", GOOD3, np.array([[0, 1, 2]])], {}),
@@ -68,6 +69,17 @@ def test_bad_arguments_raise_exceptions_that_name_them(fn, args, kwargs, tmp_pat
             assert str(e), f"{fn.__name__}: an exception without a message for {changes}"
         except BaseException as e:  # noqa: BLE001 - anything else is the finding
             pytest.fail(f"{fn.__name__} with {changes}: {type(e).__name__}: {e}")
+
+
+def test_the_mesh_keywords_are_checked_by_name():
+    pts = np.random.default_rng(2).normal(size=(400, 3))
+    with pytest.raises(ValueError, match="base"):
+        scanrig.reconstruct(pts, pts, depth=5, base="poisson")
+    with pytest.raises(scanrig.ScanrigError, match="trim"):
+        scanrig.reconstruct(pts, pts, depth=5, trim=-1.0)
+    for name in ("platter_z", "top_z"):
+        with pytest.raises(scanrig.ScanrigError, match=name):
+            scanrig.reconstruct(pts, pts, depth=5, **{name: float("nan")})
 
 
 def test_messages_name_the_argument_and_what_was_given():

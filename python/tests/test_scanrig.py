@@ -153,6 +153,46 @@ def test_process_equals_the_cli_on_a_simulated_scan(tmp_path):
             assert ours.read_bytes() == theirs.read_bytes(), name
 
 
+def test_the_laser_path_and_the_mesh_through_python_are_process_s_own(tmp_path):
+    """Issue 38: Python's laser line and mesh call the stage functions `process` calls, so they give
+    exactly what its files hold (float32 as written), from the same frames and the same cloud."""
+    import json
+
+    scan = tmp_path / "scan"
+    run("sim", "--config", "laser", "--views", "12", "--resolution", "320x240", "--out", scan)
+    processed = tmp_path / "cli"
+    run("process", scan, "-o", processed, "--force")
+    rig = scan / "rig.toml"
+    view = json.loads((scan / "scan.json").read_text())["views"][3]
+    frames = {json.dumps(f["pattern"], sort_keys=True): scan / f["file"] for f in view["frames"]}
+    image = lambda pattern: scanrig.read_image(frames[json.dumps(pattern, sort_keys=True)])  # noqa: E731
+    for k in (0, 1):
+        line, report = scanrig.laser_line(
+            image({"kind": "laser", "index": k}),
+            rig,
+            laser=k,
+            off=image({"kind": "laser_off"}),
+            texture=image({"kind": "texture"}),
+        )
+        written = scanrig.read_cloud(processed / "views" / f"view_003_laser{k}.ply")
+        assert report["points"] == len(written["points"]) > 50, report
+        assert np.array_equal(line["points"].astype(np.float32), written["points"].astype(np.float32)), k
+        assert np.array_equal(line["colors"], written["colors"]), k
+    # The mesh: from the closed cloud, with the platter plane and the working volume's top process used.
+    records = json.loads((processed / "stages.json").read_text())["outputs"]
+    made_with = records["mesh.ply"]["fingerprint"]["params"]
+    assert made_with["platter_z"] == 0.0 and made_with["top_z"] is not None, made_with
+    closed = scanrig.read_cloud(processed / "closed.ply")
+    with pytest.warns(UserWarning, match="lies far from its cloud"):
+        v, f, report = scanrig.reconstruct(
+            closed["points"], closed["normals"], platter_z=0.0, top_z=made_with["top_z"], force=True
+        )
+    mesh = scanrig.read_mesh(processed / "mesh.ply")
+    assert np.array_equal(v.astype(np.float32), mesh["vertices"].astype(np.float32))
+    assert np.array_equal(f, np.asarray(mesh["faces"]))
+    assert report["finish"]["base"]["z"] == 0.0, report["finish"]
+
+
 def test_the_views_ray_processes_are_those_every_command_reads_as_complete(tmp_path):
     import json
 

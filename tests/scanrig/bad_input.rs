@@ -279,5 +279,5 @@ fn a_mesh_far_from_its_cloud_is_refused_unless_forced() {
     );
     assert!(!d.join("bad_mesh.ply").exists());
     let o = scanrig(&[&"reconstruct", &bad, &"-o", &d.join("bad_mesh.ply"), &"--depth", &"7", &"--force"]);
-    assert!(o.status.success() && stderr(&o).contains("warning: the mesh lies far"), "{}", stderr(&o));
+    assert!(o.status.success() && stderr(&o).contains("bad_mesh.ply: the mesh lies far"), "{}", stderr(&o));
 }

@@ -191,10 +191,33 @@ fn process_reruns_what_a_change_affects_and_reuses_the_rest() {
 }
 
 #[test]
+fn a_stage_whose_code_changed_is_made_again_and_what_it_did_not_change_is_kept() {
+    let d = tempfile::tempdir().unwrap();
+    let (scan, processed) = processed_scan(d.path(), &[]);
+    // The fused cloud as an earlier version of fusion's code recorded it: every stage's fingerprint
+    // names its stage and code version, declared beside the stage function.
+    let fuse = process::pipeline::stages::FUSE;
+    let path = processed.join("stages.json");
+    let mut records: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let fp = &mut records["outputs"]["fused.ply"]["fingerprint"];
+    assert_eq!((fp["stage"].as_str(), fp["code_version"].as_u64()), (Some(fuse.stage), Some(fuse.version as u64)));
+    fp["code_version"] = (fuse.version + 1).into();
+    std::fs::write(&path, serde_json::to_vec(&records).unwrap()).unwrap();
+    let r = process(&scan, &[]);
+    // Fusion ran again; its output came out the same bytes, so the mesh and the quads stand.
+    assert_eq!(pattern(&r), "--- --+--", "{r}");
+    let why = reason(&r, "fuse");
+    assert!(
+        why.contains(&format!("the fuse stage's code changed (version {}, now {})", fuse.version + 1, fuse.version)),
+        "{why}"
+    );
+}
+
+#[test]
 fn a_folder_being_processed_is_locked() {
     let d = tempfile::tempdir().unwrap();
     let (scan, processed) = processed_scan(d.path(), &[]);
-    let lock = processed.join(process::pipeline::lock::LOCK_NAME);
+    let lock = processed.join(rig::folder_lock::LOCK_NAME);
     // Process 1 (init) is always running: a live owner.
     std::fs::write(&lock, "1\n").unwrap();
     let o = scanrig(&[&"process", &scan, &"--out", &processed]);

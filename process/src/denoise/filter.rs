@@ -242,6 +242,40 @@ pub fn denoise(grid: &RangeGrid, params: &DenoiseParams) -> Result<(RangeGrid, D
     denoise_sequence(std::slice::from_ref(grid), 0, 0, params)
 }
 
+/// Refuses frames whose grid is not the current frame's size (another sensor).
+fn check_sizes(frames: &[RangeGrid], cur: &RangeGrid) -> Result<(), DenoiseError> {
+    for (k, f) in frames.iter().enumerate() {
+        if (f.width, f.height) != (cur.width, cur.height) {
+            return Err(DenoiseError::SizeMismatch {
+                frame: k,
+                w: f.width,
+                h: f.height,
+                cw: cur.width,
+                ch: cur.height,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// `out` with each valid cell at the mean of that cell over `grids` (where two or more have it).
+fn frame_mean(out: &RangeGrid, grids: &[&RangeGrid]) -> RangeGrid {
+    let mut mean = out.clone();
+    mean.points.par_iter_mut().enumerate().for_each(|(i, p)| {
+        if !out.valid[i] {
+            return;
+        }
+        let (sum, count) = grids
+            .iter()
+            .filter(|g| g.valid[i])
+            .fold((Vector3::zeros(), 0usize), |(s, n), g| (s + g.points[i].coords, n + 1));
+        if count > 1 {
+            *p = Point3::from(sum / count as Real);
+        }
+    });
+    mean
+}
+
 /// Denoises frame `current` of a sequence using the frames within `temporal` of it (eq. 4.6): Ψ_dk =
 /// (1/2)^|k−c| and Ψ_sk = exp(−s_k²/max s²), with bandwidths estimated per frame. Frames must share the
 /// current frame's grid size (the same sensor); the other frames are read, not filtered.
@@ -254,17 +288,7 @@ pub fn denoise_sequence(
     let start = Instant::now();
     let cur = frames.get(current).ok_or(DenoiseError::NoSuchFrame(current))?;
     check(cur)?;
-    for (k, f) in frames.iter().enumerate() {
-        if (f.width, f.height) != (cur.width, cur.height) {
-            return Err(DenoiseError::SizeMismatch {
-                frame: k,
-                w: f.width,
-                h: f.height,
-                cw: cur.width,
-                ch: cur.height,
-            });
-        }
-    }
+    check_sizes(frames, cur)?;
     let span: Vec<usize> = (current.saturating_sub(temporal)..=(current + temporal).min(frames.len() - 1)).collect();
     let wide = params.direction_frames.max(temporal);
     let dir_span = current.saturating_sub(wide)..=(current + wide).min(frames.len() - 1);
@@ -309,20 +333,7 @@ pub fn denoise_sequence(
         // mean of nearby frames (`direction_frames`) steady it.
         let dirs = if span.len() > 1 {
             let grids: Vec<&RangeGrid> = dir_span.clone().map(|k| if k == current { &out } else { frame(k) }).collect();
-            let mut mean = out.clone();
-            mean.points.par_iter_mut().enumerate().for_each(|(i, p)| {
-                if !out.valid[i] {
-                    return;
-                }
-                let (sum, count) = grids
-                    .iter()
-                    .filter(|g| g.valid[i])
-                    .fold((Vector3::zeros(), 0usize), |(s, n), g| (s + g.points[i].coords, n + 1));
-                if count > 1 {
-                    *p = Point3::from(sum / count as Real);
-                }
-            });
-            directions(&mean, params.direction, params.normal_window)
+            directions(&frame_mean(&out, &grids), params.direction, params.normal_window)
         } else {
             directions(&out, params.direction, params.normal_window)
         };

@@ -5,18 +5,19 @@
 //! output is written atomically; the next stage gets exactly what the file holds (read back from the
 //! bytes written), so a resumed run and a fresh one give the same files.
 //!
-//! The output folder is locked while a run works in it ([`lock`]); `report.json` is merged stage by
+//! The output folder is locked while a run works in it ([`rig::folder_lock`]); `report.json` is merged stage by
 //! stage, so a resumed or partial run keeps the sections of the stages it did not touch.
 
 pub mod layout;
-/// The output folder's lock (it lives in `rig`: capture sessions lock their folder too).
-pub use rig::folder_lock as lock;
 pub mod memory;
+mod out;
 pub mod parts;
 pub mod records;
 mod report;
 mod run;
+mod scan_steps;
 pub mod stages;
+mod view_steps;
 pub mod volume;
 pub mod watch;
 

@@ -6,9 +6,9 @@
 //! goes on to the scan stages. A task killed half-way wrote nothing outside its scratch folder, so
 //! running it again (Ray's retry) neither loses nor duplicates anything.
 
-use super::lock::{LOCK_NAME, Lock};
 use super::records::{RECORDS_NAME, Records};
 use crate::Error;
+use rig::folder_lock::{LOCK_NAME, Lock};
 use std::path::{Component, Path};
 
 /// One file of a pack: its path inside the output folder (`/`-separated) and its bytes.

@@ -54,11 +54,29 @@ impl<'de> Deserialize<'de> for Hash {
     }
 }
 
-/// What made an output: the stage's parameters (any JSON) and its inputs by name and content hash.
+/// A stage and the version of its code. Each stage declares its own next to its function
+/// (`pipeline::stages`); a change to a stage that alters what it writes for the same inputs raises
+/// that stage's version, so its outputs — and only its, and what follows from them — are made again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct StageCode {
+    /// The stage's name, as the report and the records say it.
+    pub stage: &'static str,
+    /// Its code version.
+    pub version: u32,
+}
+
+/// What made an output: the stage and its code version, its parameters (any JSON) and its inputs by
+/// name and content hash.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Fingerprint {
     /// The scanrig version that wrote the output.
     pub version: String,
+    /// The stage that made it (empty in records older than stage code versions).
+    #[serde(default)]
+    pub stage: String,
+    /// That stage's code version ([`StageCode`]; 0 in older records, so they are made again once).
+    #[serde(default)]
+    pub code_version: u32,
     /// The stage's parameters, as they affect the output.
     pub params: Value,
     /// Inputs: a name (a frame, `rig.toml`, an upstream output) and the hash of its content.
@@ -66,9 +84,15 @@ pub struct Fingerprint {
 }
 
 impl Fingerprint {
-    /// A fingerprint with the running version.
-    pub fn new(params: Value) -> Self {
-        Fingerprint { version: env!("CARGO_PKG_VERSION").to_string(), params, inputs: BTreeMap::new() }
+    /// A fingerprint of stage `code` with the running version.
+    pub fn new(code: StageCode, params: Value) -> Self {
+        Fingerprint {
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            stage: code.stage.to_string(),
+            code_version: code.version,
+            params,
+            inputs: BTreeMap::new(),
+        }
     }
 
     /// Adds an input.
@@ -81,6 +105,15 @@ impl Fingerprint {
     pub fn difference(&self, old: &Fingerprint) -> Option<String> {
         if self.version != old.version {
             return Some(format!("it was made by scanrig {}, this is {}", old.version, self.version));
+        }
+        if (&self.stage, self.code_version) != (&old.stage, old.code_version) {
+            return Some(match old.code_version {
+                0 => format!(
+                    "the {} stage's code has a version now ({}), the record has none",
+                    self.stage, self.code_version
+                ),
+                v => format!("the {} stage's code changed (version {v}, now {})", self.stage, self.code_version),
+            });
         }
         let mut changed = Vec::new();
         diff_values("", &self.params, &old.params, &mut changed);
@@ -98,6 +131,12 @@ impl Fingerprint {
         inputs.extend(old.inputs.keys().filter(|k| !self.inputs.contains_key(*k)).map(|k| format!("{k} (gone)")));
         (!inputs.is_empty()).then(|| format!("input {} changed", list(&inputs)))
     }
+}
+
+/// A rig part as a fingerprint value: its exact debug text (every f64 printed so it reads back the
+/// same), so any edit of the part a stage uses reruns the stage.
+pub fn rig_part(part: &impl std::fmt::Debug) -> Value {
+    Value::String(format!("{part:?}"))
 }
 
 fn list(items: &[String]) -> String {
@@ -273,9 +312,11 @@ mod tests {
     use super::*;
     use serde_json::json;
 
+    const TEST: StageCode = StageCode { stage: "test", version: 1 };
+
     #[test]
     fn differences_name_the_parameter_or_the_input() {
-        let a = Fingerprint::new(json!({"crop": {"radius_mm": 20.0, "min_height_mm": 1.0}, "k": 64}))
+        let a = Fingerprint::new(TEST, json!({"crop": {"radius_mm": 20.0, "min_height_mm": 1.0}, "k": 64}))
             .input("rig.toml camera", Hash(1));
         let mut b = a.clone();
         assert_eq!(a.difference(&b), None);
@@ -289,10 +330,26 @@ mod tests {
     }
 
     #[test]
+    fn a_new_code_version_of_the_stage_makes_its_output_again() {
+        let params = json!({"depth": 8});
+        let old = Fingerprint::new(TEST, params.clone()).input("fused.ply", Hash(7));
+        let new = Fingerprint::new(StageCode { version: 2, ..TEST }, params.clone()).input("fused.ply", Hash(7));
+        assert_ne!(old, new);
+        assert_eq!(new.difference(&old).as_deref(), Some("the test stage's code changed (version 1, now 2)"));
+        // A record written before stages had code versions reads as version 0, and runs once.
+        let mut older: serde_json::Value = serde_json::to_value(&old).unwrap();
+        let fields = older.as_object_mut().unwrap();
+        fields.remove("stage");
+        fields.remove("code_version");
+        let older: Fingerprint = serde_json::from_value(older).unwrap();
+        assert!(old.difference(&older).unwrap().contains("has a version now (1)"));
+    }
+
+    #[test]
     fn a_file_is_reused_only_while_its_fingerprint_and_content_hold() {
         let tmp = tempfile::tempdir().unwrap();
         let dir = tmp.path();
-        let fp = Fingerprint::new(json!({"depth": 8}));
+        let fp = Fingerprint::new(TEST, json!({"depth": 8}));
         let mut r = Records::open(dir, false);
         assert_eq!(r.decide("mesh.ply", &fp).reason(), Some("not made yet"));
         std::fs::write(dir.join("mesh.ply"), b"mesh").unwrap();
@@ -304,7 +361,7 @@ mod tests {
             Decision::Reuse(rec) => assert_eq!(rec.report["triangles"], 4),
             Decision::Run(why) => panic!("{why}"),
         }
-        assert_eq!(r.decide("mesh.ply", &Fingerprint::new(json!({"depth": 9}))).reason(), Some("depth changed"));
+        assert_eq!(r.decide("mesh.ply", &Fingerprint::new(TEST, json!({"depth": 9}))).reason(), Some("depth changed"));
         assert_eq!(Records::open(dir, true).decide("mesh.ply", &fp).reason(), Some("--redo"));
         std::fs::write(dir.join("mesh.ply"), b"edited").unwrap();
         assert_eq!(r.decide("mesh.ply", &fp).reason(), Some("the file was changed since it was written"));

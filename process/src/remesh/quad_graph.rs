@@ -69,232 +69,15 @@ pub fn quads_from_lines(s: &Surface, lines: &[Line], boundary_lines: &[bool], me
     let mut stats = GraphStats::default();
     let diag = s.mesh.bounding_box().map_or(1.0, |b| (b.max - b.min).norm()).max(Real::MIN_POSITIVE);
     let eps = 1e-7 * diag;
-
-    // Segments per face. Lines along mesh edges are filed under both faces of each edge.
-    let mut by_face: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
-    for (i, line) in lines.iter().enumerate() {
-        for (j, &f) in line.faces.iter().enumerate() {
-            by_face.entry(f).or_default().push((i as u32, j as u32));
-            if line.on_edges
-                && let Some(g) = s.face_across_segment(f, &line.points[j], &line.points[j + 1])
-            {
-                by_face.entry(g).or_default().push((i as u32, j as u32));
-            }
-        }
-    }
-
-    // Crossings, merged by position into nodes.
-    let mut nodes: Vec<(Point3, Seat)> = Vec::new();
-    let mut node_at: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
-    let mut visits: Vec<Vec<Visit>> = vec![Vec::new(); lines.len()];
-    let mut find_or_add = |p: Point3, seat: Seat, nodes: &mut Vec<(Point3, Seat)>| -> u32 {
-        let key = [p.x, p.y, p.z].map(|c| (c / (4.0 * eps)).floor() as i64);
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    if let Some(ids) = node_at.get(&[key[0] + dx, key[1] + dy, key[2] + dz]) {
-                        for &id in ids {
-                            if (nodes[id as usize].0 - p).norm() < 2.0 * eps {
-                                return id;
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        nodes.push((p, seat));
-        let id = nodes.len() as u32 - 1;
-        node_at.entry(key).or_default().push(id);
-        id
-    };
-    let mut faces_sorted: Vec<u32> = by_face.keys().copied().collect();
-    faces_sorted.sort_unstable();
-    for f in faces_sorted {
-        let segs = &by_face[&f];
-        if segs.len() < 2 {
-            continue;
-        }
-        let frame = face_frame(s, f);
-        for a in 0..segs.len() {
-            for b in a + 1..segs.len() {
-                let ((la, ja), (lb, jb)) = (segs[a], segs[b]);
-                if la == lb {
-                    continue;
-                }
-                let (la_, lb_) = (&lines[la as usize], &lines[lb as usize]);
-                let Some((sa, sb)) = intersect(
-                    &frame,
-                    &la_.points[ja as usize],
-                    &la_.points[ja as usize + 1],
-                    &lb_.points[jb as usize],
-                    &lb_.points[jb as usize + 1],
-                ) else {
-                    continue;
-                };
-                let p = la_.points[ja as usize] + (la_.points[ja as usize + 1] - la_.points[ja as usize]) * sa;
-                let seat = seat_of(s, f, &p, 10.0 * eps);
-                let id = find_or_add(p, seat, &mut nodes);
-                visits[la as usize].push(Visit { param: ja as Real + sa, node: id });
-                visits[lb as usize].push(Visit { param: jb as Real + sb, node: id });
-            }
-        }
-    }
-    // Lines ending on a mesh vertex (at a pole of the field) meet there.
-    for (i, line) in lines.iter().enumerate() {
-        for (end, v) in line.end_vertices.iter().enumerate() {
-            if let Some(v) = v {
-                let p = s.mesh.vertices[*v as usize];
-                let id = find_or_add(p, Seat::Vertex(*v), &mut nodes);
-                nodes[id as usize] = (p, Seat::Vertex(*v));
-                let param = if end == 0 { 0.0 } else { line.faces.len() as Real };
-                visits[i].push(Visit { param, node: id });
-            }
-        }
-    }
+    let (nodes, visits) = crossings(s, lines, eps);
     stats.crossings = nodes.len();
-
-    // Edges between consecutive nodes along each line.
-    let mut edges: Vec<GraphEdge> = Vec::new();
-    for (i, v) in visits.iter_mut().enumerate() {
-        v.sort_by(|a, b| a.param.total_cmp(&b.param));
-        v.dedup_by(|b, a| a.node == b.node);
-        let closed = lines[i].closed;
-        if closed && v.len() > 1 && v[0].node == v[v.len() - 1].node {
-            v.pop();
-        }
-        if closed && v.len() < 2 {
-            continue; // a loop crossing at most one line bounds nothing
-        }
-        for w in v.windows(2) {
-            edges.push(GraphEdge { from: w[0].node, to: w[1].node, line: i as u32, p0: w[0].param, p1: w[1].param });
-        }
-        if closed {
-            let (last, first) = (v[v.len() - 1], v[0]);
-            let n = lines[i].faces.len() as Real;
-            edges.push(GraphEdge {
-                from: last.node,
-                to: first.node,
-                line: i as u32,
-                p0: last.param,
-                p1: first.param + n,
-            });
-        }
-    }
-    edges.retain(|e| e.from != e.to);
-
-    // Collapse edges shorter than `merge`: lines crossing at a glancing angle (a streamline beside a
-    // constraint near a corner) leave near-coincident nodes and slivers between them. A mesh vertex
-    // (a corner of the constraints) wins as the merged node.
+    let mut edges = line_edges(lines, visits);
     if merge > 0.0 {
-        let mut groups = UnionFind::new(nodes.len());
-        for e in &edges {
-            if (nodes[e.from as usize].0 - nodes[e.to as usize].0).norm() < merge {
-                groups.union(e.from as usize, e.to as usize);
-            }
-        }
-        let mut rep = vec![u32::MAX; nodes.len()];
-        for n in 0..nodes.len() {
-            let root = groups.find(n);
-            let better = rep[root] == u32::MAX
-                || (matches!(nodes[n].1, Seat::Vertex(_)) && !matches!(nodes[rep[root] as usize].1, Seat::Vertex(_)));
-            if better {
-                rep[root] = n as u32;
-            }
-        }
-        for e in &mut edges {
-            e.from = rep[groups.find(e.from as usize)];
-            e.to = rep[groups.find(e.to as usize)];
-        }
-        edges.retain(|e| e.from != e.to);
+        collapse_short_edges(&nodes, &mut edges, merge);
     }
-
-    // Two lines along the same stretch (a streamline that slid onto a constraint edge) give two
-    // edges between the same nodes leaving in the same direction: keep the first (constraints come
-    // first), or the rotation order between them would be a coin toss.
-    {
-        let mut by_ends: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
-        for (k, e) in edges.iter().enumerate() {
-            by_ends.entry((e.from.min(e.to), e.from.max(e.to))).or_default().push(k);
-        }
-        let mut dead = vec![false; edges.len()];
-        let leave = |k: usize, at: u32| -> Option<Vector3> {
-            let e = edges[k];
-            let (param, forward) = if e.from == at { (e.p0, true) } else { (e.p1, false) };
-            step_from(&lines[e.line as usize], param, forward, &nodes[at as usize].0).map(|(d, _)| d.normalize())
-        };
-        for ks in by_ends.values().filter(|ks| ks.len() > 1) {
-            for (i, &a) in ks.iter().enumerate() {
-                for &b in &ks[i + 1..] {
-                    if dead[a] || dead[b] {
-                        continue;
-                    }
-                    let same = [edges[a].from, edges[a].to].iter().all(|&n| match (leave(a, n), leave(b, n)) {
-                        (Some(x), Some(y)) => x.dot(&y) > 1.0 - 1e-6,
-                        _ => false,
-                    });
-                    if same {
-                        dead[if edges[a].line <= edges[b].line { b } else { a }] = true;
-                    }
-                }
-            }
-        }
-        let mut k = 0;
-        edges.retain(|_| {
-            k += 1;
-            !dead[k - 1]
-        });
-    }
-
-    // Drop dangling edges, stray islands and bridges (an edge with the same face on both sides: a
-    // cluster hanging by one path) until the embedding's faces are all proper.
-    let mut alive = vec![true; edges.len()];
-    let (around, faces) = loop {
-        prune_dangling(&edges, &mut alive, nodes.len());
-        keep_main_components(s, &nodes, &edges, &mut alive);
-        let around = rotations(s, lines, &nodes, &edges, &alive);
-        let faces = trace_faces(&edges, &alive, &around);
-        let mut face_of = vec![u32::MAX; 2 * edges.len()];
-        for (i, f) in faces.iter().enumerate() {
-            for &h in f {
-                face_of[h as usize] = i as u32;
-            }
-        }
-        let mut bridges = 0;
-        for k in 0..edges.len() {
-            if alive[k] && face_of[2 * k] == face_of[2 * k + 1] {
-                alive[k] = false;
-                bridges += 1;
-            }
-        }
-        // A face that passes a node twice has a cluster hanging by that node: cut the smaller side.
-        for f in &faces {
-            let mut at: HashMap<u32, usize> = HashMap::new();
-            for (i, &h) in f.iter().enumerate() {
-                let e = edges[(h / 2) as usize];
-                let node = if h.is_multiple_of(2) { e.from } else { e.to };
-                if let Some(&j) = at.get(&node) {
-                    let inner = i - j;
-                    let piece: Vec<u32> = if 2 * inner <= f.len() {
-                        f[j..i].to_vec()
-                    } else {
-                        f[i..].iter().chain(&f[..j]).copied().collect()
-                    };
-                    for h in piece {
-                        if alive[(h / 2) as usize] {
-                            alive[(h / 2) as usize] = false;
-                            bridges += 1;
-                        }
-                    }
-                    break;
-                }
-                at.insert(node, i);
-            }
-        }
-        stats.bridges += bridges;
-        if bridges == 0 {
-            break (around, faces);
-        }
-    };
+    drop_doubled_edges(lines, &nodes, &mut edges);
+    let (alive, around, faces) = proper_faces(s, lines, &nodes, &edges, &mut stats);
+    let is_corner = corners(&nodes, &edges, &alive, &around);
     let tail = |h: u32| -> u32 {
         let e = edges[(h / 2) as usize];
         if h.is_multiple_of(2) { e.from } else { e.to }
@@ -303,37 +86,6 @@ pub fn quads_from_lines(s: &Surface, lines: &[Line], boundary_lines: &[bool], me
         let e = edges[(h / 2) as usize];
         boundary_lines.get(e.line as usize).copied().unwrap_or(false) && h % 2 == 1
     };
-
-    // Nodes where a line passes straight through with nothing crossing are not corners, unless
-    // dropping one would join two nodes that are already neighbours (a doubled edge).
-    let mut adjacent: Vec<Vec<u32>> = vec![Vec::new(); nodes.len()];
-    for (k, e) in edges.iter().enumerate() {
-        if alive[k] {
-            adjacent[e.from as usize].push(e.to);
-            adjacent[e.to as usize].push(e.from);
-        }
-    }
-    let mut is_corner: Vec<bool> = around.iter().map(|list| list.len() > 2).collect();
-    for n in 0..nodes.len() {
-        let list = &around[n];
-        if list.len() != 2 {
-            continue;
-        }
-        let turn = ((list[1].0 - list[0].0).rem_euclid(TAU) - TAU / 2.0).abs();
-        let (a, b) = (adjacent[n][0], adjacent[n][1]);
-        let n32 = n as u32;
-        if turn > 30f64.to_radians() || a == b || a == n32 || b == n32 || adjacent[a as usize].contains(&b) {
-            is_corner[n] = true;
-            continue;
-        }
-        for (x, y) in [(a, b), (b, a)] {
-            if let Some(slot) = adjacent[x as usize].iter_mut().find(|m| **m == n32) {
-                *slot = y;
-            }
-        }
-        adjacent[n].clear();
-    }
-
     let mut index = vec![u32::MAX; nodes.len()];
     let mut mesh = PolyMesh::default();
     for cycle in &faces {
@@ -362,6 +114,294 @@ pub fn quads_from_lines(s: &Surface, lines: &[Line], boundary_lines: &[bool], me
     stats.nodes = mesh.vertices.len();
     stats.t_junctions = (0..nodes.len()).filter(|&n| index[n] != u32::MAX && around[n].len() == 3).count();
     (mesh, stats)
+}
+
+/// The graph's nodes, found by position: crossings closer than twice `eps` are one node.
+struct NodeIndex {
+    nodes: Vec<(Point3, Seat)>,
+    at: HashMap<[i64; 3], Vec<u32>>,
+    eps: Real,
+}
+
+impl NodeIndex {
+    fn find_or_add(&mut self, p: Point3, seat: Seat) -> u32 {
+        let eps = self.eps;
+        let key = [p.x, p.y, p.z].map(|c| (c / (4.0 * eps)).floor() as i64);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(ids) = self.at.get(&[key[0] + dx, key[1] + dy, key[2] + dz]) {
+                        for &id in ids {
+                            if (self.nodes[id as usize].0 - p).norm() < 2.0 * eps {
+                                return id;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        self.nodes.push((p, seat));
+        let id = self.nodes.len() as u32 - 1;
+        self.at.entry(key).or_default().push(id);
+        id
+    }
+}
+
+/// The lines' crossings, merged by position into nodes, and each line's visits to them in order of
+/// finding; lines ending on a mesh vertex (at a pole of the field) meet there.
+fn crossings(s: &Surface, lines: &[Line], eps: Real) -> (Vec<(Point3, Seat)>, Vec<Vec<Visit>>) {
+    // Segments per face. Lines along mesh edges are filed under both faces of each edge.
+    let mut by_face: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
+    for (i, line) in lines.iter().enumerate() {
+        for (j, &f) in line.faces.iter().enumerate() {
+            by_face.entry(f).or_default().push((i as u32, j as u32));
+            if line.on_edges
+                && let Some(g) = s.face_across_segment(f, &line.points[j], &line.points[j + 1])
+            {
+                by_face.entry(g).or_default().push((i as u32, j as u32));
+            }
+        }
+    }
+    let mut index = NodeIndex { nodes: Vec::new(), at: HashMap::new(), eps };
+    let mut visits: Vec<Vec<Visit>> = vec![Vec::new(); lines.len()];
+    let mut faces_sorted: Vec<u32> = by_face.keys().copied().collect();
+    faces_sorted.sort_unstable();
+    for f in faces_sorted {
+        let segs = &by_face[&f];
+        if segs.len() < 2 {
+            continue;
+        }
+        let frame = face_frame(s, f);
+        for a in 0..segs.len() {
+            for b in a + 1..segs.len() {
+                let ((la, ja), (lb, jb)) = (segs[a], segs[b]);
+                if la == lb {
+                    continue;
+                }
+                let (la_, lb_) = (&lines[la as usize], &lines[lb as usize]);
+                let Some((sa, sb)) = intersect(
+                    &frame,
+                    &la_.points[ja as usize],
+                    &la_.points[ja as usize + 1],
+                    &lb_.points[jb as usize],
+                    &lb_.points[jb as usize + 1],
+                ) else {
+                    continue;
+                };
+                let p = la_.points[ja as usize] + (la_.points[ja as usize + 1] - la_.points[ja as usize]) * sa;
+                let seat = seat_of(s, f, &p, 10.0 * eps);
+                let id = index.find_or_add(p, seat);
+                visits[la as usize].push(Visit { param: ja as Real + sa, node: id });
+                visits[lb as usize].push(Visit { param: jb as Real + sb, node: id });
+            }
+        }
+    }
+    for (i, line) in lines.iter().enumerate() {
+        for (end, v) in line.end_vertices.iter().enumerate() {
+            if let Some(v) = v {
+                let p = s.mesh.vertices[*v as usize];
+                let id = index.find_or_add(p, Seat::Vertex(*v));
+                index.nodes[id as usize] = (p, Seat::Vertex(*v));
+                let param = if end == 0 { 0.0 } else { line.faces.len() as Real };
+                visits[i].push(Visit { param, node: id });
+            }
+        }
+    }
+    (index.nodes, visits)
+}
+
+/// Edges between consecutive nodes along each line (a closed line's last back to its first).
+fn line_edges(lines: &[Line], mut visits: Vec<Vec<Visit>>) -> Vec<GraphEdge> {
+    let mut edges: Vec<GraphEdge> = Vec::new();
+    for (i, v) in visits.iter_mut().enumerate() {
+        v.sort_by(|a, b| a.param.total_cmp(&b.param));
+        v.dedup_by(|b, a| a.node == b.node);
+        let closed = lines[i].closed;
+        if closed && v.len() > 1 && v[0].node == v[v.len() - 1].node {
+            v.pop();
+        }
+        if closed && v.len() < 2 {
+            continue; // a loop crossing at most one line bounds nothing
+        }
+        for w in v.windows(2) {
+            edges.push(GraphEdge { from: w[0].node, to: w[1].node, line: i as u32, p0: w[0].param, p1: w[1].param });
+        }
+        if closed {
+            let (last, first) = (v[v.len() - 1], v[0]);
+            let n = lines[i].faces.len() as Real;
+            edges.push(GraphEdge {
+                from: last.node,
+                to: first.node,
+                line: i as u32,
+                p0: last.param,
+                p1: first.param + n,
+            });
+        }
+    }
+    edges.retain(|e| e.from != e.to);
+    edges
+}
+
+/// Collapses edges shorter than `merge`: lines crossing at a glancing angle (a streamline beside a
+/// constraint near a corner) leave near-coincident nodes and slivers between them. A mesh vertex (a
+/// corner of the constraints) wins as the merged node.
+fn collapse_short_edges(nodes: &[(Point3, Seat)], edges: &mut Vec<GraphEdge>, merge: Real) {
+    let mut groups = UnionFind::new(nodes.len());
+    for e in edges.iter() {
+        if (nodes[e.from as usize].0 - nodes[e.to as usize].0).norm() < merge {
+            groups.union(e.from as usize, e.to as usize);
+        }
+    }
+    let mut rep = vec![u32::MAX; nodes.len()];
+    for n in 0..nodes.len() {
+        let root = groups.find(n);
+        let better = rep[root] == u32::MAX
+            || (matches!(nodes[n].1, Seat::Vertex(_)) && !matches!(nodes[rep[root] as usize].1, Seat::Vertex(_)));
+        if better {
+            rep[root] = n as u32;
+        }
+    }
+    for e in edges.iter_mut() {
+        e.from = rep[groups.find(e.from as usize)];
+        e.to = rep[groups.find(e.to as usize)];
+    }
+    edges.retain(|e| e.from != e.to);
+}
+
+/// Two lines along the same stretch (a streamline that slid onto a constraint edge) give two edges
+/// between the same nodes leaving in the same direction: keeps the first (constraints come first),
+/// or the rotation order between them would be a coin toss.
+fn drop_doubled_edges(lines: &[Line], nodes: &[(Point3, Seat)], edges: &mut Vec<GraphEdge>) {
+    let mut by_ends: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
+    for (k, e) in edges.iter().enumerate() {
+        by_ends.entry((e.from.min(e.to), e.from.max(e.to))).or_default().push(k);
+    }
+    let mut dead = vec![false; edges.len()];
+    let leave = |k: usize, at: u32| -> Option<Vector3> {
+        let e = edges[k];
+        let (param, forward) = if e.from == at { (e.p0, true) } else { (e.p1, false) };
+        step_from(&lines[e.line as usize], param, forward, &nodes[at as usize].0).map(|(d, _)| d.normalize())
+    };
+    for ks in by_ends.values().filter(|ks| ks.len() > 1) {
+        for (i, &a) in ks.iter().enumerate() {
+            for &b in &ks[i + 1..] {
+                if dead[a] || dead[b] {
+                    continue;
+                }
+                let same = [edges[a].from, edges[a].to].iter().all(|&n| match (leave(a, n), leave(b, n)) {
+                    (Some(x), Some(y)) => x.dot(&y) > 1.0 - 1e-6,
+                    _ => false,
+                });
+                if same {
+                    dead[if edges[a].line <= edges[b].line { b } else { a }] = true;
+                }
+            }
+        }
+    }
+    let mut k = 0;
+    edges.retain(|_| {
+        k += 1;
+        !dead[k - 1]
+    });
+}
+
+/// The edges still alive, each node's edges in rotation order, and the faces they bound (half-edge
+/// cycles). Drops dangling edges, stray islands and bridges (an edge with the same face on both
+/// sides: a cluster hanging by one path) until the embedding's faces are all proper.
+#[allow(clippy::type_complexity)]
+fn proper_faces(
+    s: &Surface,
+    lines: &[Line],
+    nodes: &[(Point3, Seat)],
+    edges: &[GraphEdge],
+    stats: &mut GraphStats,
+) -> (Vec<bool>, Vec<Vec<(Real, u32)>>, Vec<Vec<u32>>) {
+    let mut alive = vec![true; edges.len()];
+    loop {
+        prune_dangling(edges, &mut alive, nodes.len());
+        keep_main_components(s, nodes, edges, &mut alive);
+        let around = rotations(s, lines, nodes, edges, &alive);
+        let faces = trace_faces(edges, &alive, &around);
+        let mut face_of = vec![u32::MAX; 2 * edges.len()];
+        for (i, f) in faces.iter().enumerate() {
+            for &h in f {
+                face_of[h as usize] = i as u32;
+            }
+        }
+        let mut bridges = 0;
+        for k in 0..edges.len() {
+            if alive[k] && face_of[2 * k] == face_of[2 * k + 1] {
+                alive[k] = false;
+                bridges += 1;
+            }
+        }
+        for f in &faces {
+            bridges += cut_hanging_cluster(f, edges, &mut alive);
+        }
+        stats.bridges += bridges;
+        if bridges == 0 {
+            return (alive, around, faces);
+        }
+    }
+}
+
+/// A face that passes a node twice has a cluster hanging by that node: cuts the smaller side (its
+/// edges no longer alive); returns how many edges it cut.
+fn cut_hanging_cluster(f: &[u32], edges: &[GraphEdge], alive: &mut [bool]) -> usize {
+    let mut cut = 0;
+    let mut at: HashMap<u32, usize> = HashMap::new();
+    for (i, &h) in f.iter().enumerate() {
+        let e = edges[(h / 2) as usize];
+        let node = if h.is_multiple_of(2) { e.from } else { e.to };
+        if let Some(&j) = at.get(&node) {
+            let inner = i - j;
+            let piece: Vec<u32> =
+                if 2 * inner <= f.len() { f[j..i].to_vec() } else { f[i..].iter().chain(&f[..j]).copied().collect() };
+            for h in piece {
+                if alive[(h / 2) as usize] {
+                    alive[(h / 2) as usize] = false;
+                    cut += 1;
+                }
+            }
+            break;
+        }
+        at.insert(node, i);
+    }
+    cut
+}
+
+/// Which nodes are corners of the faces: a node where a line passes straight through with nothing
+/// crossing is not, unless dropping it would join two nodes that are already neighbours (a doubled
+/// edge).
+fn corners(nodes: &[(Point3, Seat)], edges: &[GraphEdge], alive: &[bool], around: &[Vec<(Real, u32)>]) -> Vec<bool> {
+    let mut adjacent: Vec<Vec<u32>> = vec![Vec::new(); nodes.len()];
+    for (k, e) in edges.iter().enumerate() {
+        if alive[k] {
+            adjacent[e.from as usize].push(e.to);
+            adjacent[e.to as usize].push(e.from);
+        }
+    }
+    let mut is_corner: Vec<bool> = around.iter().map(|list| list.len() > 2).collect();
+    for n in 0..nodes.len() {
+        let list = &around[n];
+        if list.len() != 2 {
+            continue;
+        }
+        let turn = ((list[1].0 - list[0].0).rem_euclid(TAU) - TAU / 2.0).abs();
+        let (a, b) = (adjacent[n][0], adjacent[n][1]);
+        let n32 = n as u32;
+        if turn > 30f64.to_radians() || a == b || a == n32 || b == n32 || adjacent[a as usize].contains(&b) {
+            is_corner[n] = true;
+            continue;
+        }
+        for (x, y) in [(a, b), (b, a)] {
+            if let Some(slot) = adjacent[x as usize].iter_mut().find(|m| **m == n32) {
+                *slot = y;
+            }
+        }
+        adjacent[n].clear();
+    }
+    is_corner
 }
 
 /// Removes edges hanging from nodes with a single edge, repeatedly.

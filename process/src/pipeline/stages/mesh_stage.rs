@@ -1,0 +1,424 @@
+//! The mesh: reconstruction (ch. 5), its finish (base, trim), the support check, its colours.
+
+use super::StageError;
+use crate::kd_tree::PointTree;
+use crate::pipeline::records::{Fingerprint, StageCode};
+use crate::reconstruct::adfft::{AdFftParams, AdFftReport, reconstruct_adfft};
+pub use crate::reconstruct::base::{Base, BaseReport};
+use crate::reconstruct::closing::{CloseParams, CloseReport, close_openings};
+use crate::reconstruct::global_fft::{FftParams, FftReport, reconstruct_fft_in};
+pub use crate::reconstruct::trim::TrimReport;
+use rig::math::Real;
+use rig::{PointCloud, PolyMesh, TriMesh};
+use serde::{Deserialize, Serialize};
+use serde_json::json;
+
+/// The reconstruction method and its parameters (ch. 5).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(rename_all = "snake_case", tag = "method")]
+pub enum ReconstructParams {
+    /// The global FFT method (Kazhdan 2005): one N³ grid.
+    Fft(FftParams),
+    /// AdFFT: local FFT solutions over an octree, blended by a partition of unity (thesis 5.3).
+    Adfft(AdFftParams),
+}
+
+impl ReconstructParams {
+    /// The octree depth (the global grid's, 2^depth a side).
+    pub fn depth(&self) -> u32 {
+        match self {
+            ReconstructParams::Fft(p) => p.depth,
+            ReconstructParams::Adfft(p) => p.depth,
+        }
+    }
+}
+
+impl Default for ReconstructParams {
+    fn default() -> Self {
+        ReconstructParams::Fft(FftParams::default())
+    }
+}
+
+/// What reconstruction did, by method.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "method")]
+pub enum ReconstructReport {
+    /// The global method's report.
+    Fft(FftReport),
+    /// AdFFT's report.
+    Adfft(AdFftReport),
+}
+
+impl ReconstructReport {
+    /// Grid points per axis (AdFFT: of the equivalent global grid).
+    pub fn n(&self) -> usize {
+        match self {
+            ReconstructReport::Fft(r) => r.n,
+            ReconstructReport::Adfft(r) => r.n,
+        }
+    }
+    /// Grid spacing, in the cloud's units.
+    pub fn cell(&self) -> Real {
+        match self {
+            ReconstructReport::Fft(r) => r.cell,
+            ReconstructReport::Adfft(r) => r.cell,
+        }
+    }
+    /// Triangles written.
+    pub fn triangles(&self) -> usize {
+        match self {
+            ReconstructReport::Fft(r) => r.triangles,
+            ReconstructReport::Adfft(r) => r.triangles,
+        }
+    }
+    /// Seconds spent.
+    pub fn seconds(&self) -> Real {
+        match self {
+            ReconstructReport::Fft(r) => r.seconds_splat + r.seconds_fft + r.seconds_extract,
+            ReconstructReport::Adfft(r) => r.seconds_octree + r.seconds_extract,
+        }
+    }
+}
+
+/// A watertight mesh of an oriented cloud.
+pub fn reconstruct<'a>(
+    cloud: impl Into<rig::CloudRef<'a>>,
+    params: &ReconstructParams,
+) -> Result<(TriMesh, ReconstructReport), StageError> {
+    reconstruct_in(cloud, params, None)
+}
+
+/// [`reconstruct`] with a k-d tree over the cloud's positions the caller already has (`None`: built
+/// where needed): the pipeline builds one and asks it for the area weights, the mesh's support
+/// ([`check_support`]) and its colours ([`mesh_colours`]).
+pub fn reconstruct_in<'a>(
+    cloud: impl Into<rig::CloudRef<'a>>,
+    params: &ReconstructParams,
+    tree: Option<&PointTree>,
+) -> Result<(TriMesh, ReconstructReport), StageError> {
+    let cloud = cloud.into();
+    check_finite(cloud)?;
+    params.validate_for(rig::Aabb::of(cloud.positions).map_or(0.0, |b| b.diagonal()))?;
+    let (mesh, report) = match params {
+        ReconstructParams::Fft(p) => {
+            let (m, r) = reconstruct_fft_in(cloud, p, tree)?;
+            (m, ReconstructReport::Fft(r))
+        }
+        ReconstructParams::Adfft(p) => {
+            let (m, r) = reconstruct_adfft(cloud, p)?;
+            (m, ReconstructReport::Adfft(r))
+        }
+    };
+    if mesh.faces.is_empty() {
+        return Err(StageError::NoSurface { points: cloud.len() });
+    }
+    Ok((mesh, report))
+}
+
+/// What becomes of the reconstructed surface before it is written: its never-seen base, and surface
+/// far from the data.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct FinishParams {
+    /// The base of an object on the platter (only where the platter plane is known: a turntable scan).
+    pub base: Base,
+    /// Remove surface farther than this from every sample (the cloud's units); `None` keeps it all.
+    pub trim: Option<Real>,
+    /// Close the holes trimming leaves, each by a fan from its centre.
+    pub trim_fill: bool,
+}
+
+impl Default for FinishParams {
+    fn default() -> Self {
+        FinishParams { base: Base::Flat, trim: None, trim_fill: false }
+    }
+}
+
+/// What finishing did.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct FinishReport {
+    /// The base cut, where one was made.
+    #[serde(default)]
+    pub base: Option<BaseReport>,
+    /// The trim, where asked.
+    #[serde(default)]
+    pub trim: Option<TrimReport>,
+    /// The cut at the working volume's top, where the mesh rose above it
+    /// ([`crate::reconstruct::top_cut`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub top: Option<BaseReport>,
+    /// What was not done and why.
+    #[serde(default)]
+    pub skipped: Vec<String>,
+}
+
+/// A reconstruction's record: the method's report, and what finishing did.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct MeshReport {
+    /// The reconstruction.
+    #[serde(flatten)]
+    pub reconstruct: ReconstructReport,
+    /// Base and trim.
+    #[serde(default)]
+    pub finish: FinishReport,
+}
+
+/// How far above the platter the base is cut, in reconstruction cells: above the low-pass's rounding
+/// of the bottom edge (a cell or two), so the skirt below it is the object's wall.
+pub const SKIRT_CELLS: Real = 2.0;
+
+/// Finishes a reconstructed mesh: cuts its base at the platter plane `platter_z` (when known) as
+/// `params.base` says — at [`SKIRT_CELLS`] of `cell` above it, carried straight down —, then trims
+/// surface farther than `params.trim` from `samples` (never the flat base, which no sample need cover).
+pub fn finish(
+    mesh: TriMesh,
+    samples: &PointCloud,
+    params: &FinishParams,
+    platter_z: Option<Real>,
+    cell: Real,
+) -> Result<(TriMesh, FinishReport), StageError> {
+    params.validate()?;
+    let mut report = FinishReport::default();
+    let mut mesh = mesh;
+    match (params.base, platter_z) {
+        (Base::Closed, _) => {}
+        (_, None) => report
+            .skipped
+            .push("base: the platter plane is not known (no turntable), so the base is kept as reconstructed".into()),
+        (base, Some(z)) => {
+            let (cut, r) = crate::reconstruct::base::cut_base(&mesh, base, z, SKIRT_CELLS * cell)?;
+            mesh = cut;
+            report.base = Some(r);
+        }
+    }
+    if let Some(t) = params.trim {
+        // The base (cap and skirt) is where the object stood: kept by definition, not by samples.
+        let base = report.base.filter(|r| r.outline_edges > 0).map(|r| r.z + r.skirt);
+        let faces_before = mesh.faces.len();
+        let (trimmed, r) = crate::reconstruct::trim::trim(&mesh, &samples.positions, t, params.trim_fill, base);
+        // A trim that takes (nearly) the whole surface is a distance below the data's spacing, not a
+        // result.
+        if trimmed.faces.len() * 10 < faces_before {
+            return Err(StageError::Implausible {
+                what: format!(
+                    "--trim {t} removed {} of the mesh's {faces_before} faces",
+                    faces_before - trimmed.faces.len()
+                ),
+                hint: format!(
+                    "the distance is below the samples' spacing; give a larger --trim (the grid cell is {cell:.4})"
+                ),
+            });
+        }
+        mesh = trimmed;
+        report.trim = Some(r);
+    }
+    Ok((mesh, report))
+}
+
+/// The largest median distance from a mesh's vertices to its cloud, as a fraction of the cloud's
+/// bounding-box diagonal, that a reconstruction of the cloud can have. A mesh the data supports lies
+/// on its points (median 0.1–0.2 % of the diagonal on the simulated scans, where closing the holes a
+/// scan leaves puts a tenth or more of the vertices far from any point); a median of several per cent
+/// means most of the surface is made up — inconsistent normals (a laser scan's, 6.9 %) or a stray
+/// cluster.
+pub const MAX_MEDIAN_GAP: Real = 0.02;
+
+/// The plausibility check of a reconstruction: the median distance from the mesh's vertices
+/// (sampled, up to 20,000) to the nearest point of `cloud`. Beyond [`MAX_MEDIAN_GAP`] of the
+/// diagonal: an error unless `force`, else the warning to give.
+pub fn check_support(
+    mesh: &TriMesh,
+    cloud: &PointCloud,
+    tree: &PointTree,
+    force: bool,
+) -> Result<Option<String>, StageError> {
+    let Some(bounds) = cloud.bounding_box() else { return Ok(None) };
+    let diagonal = (bounds.max - bounds.min).norm();
+    let step = mesh.vertices.len().div_ceil(20_000).max(1);
+    let mut gaps: Vec<Real> = mesh.vertices.iter().step_by(step).map(|v| tree.nearest(v).1.sqrt()).collect();
+    if gaps.is_empty() {
+        return Ok(None);
+    }
+    let mid = gaps.len() / 2;
+    let median = *gaps.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    if median <= MAX_MEDIAN_GAP * diagonal {
+        return Ok(None);
+    }
+    let what = format!(
+        "the mesh lies far from its cloud: half its vertices are more than {median:.2} mm from any point ({:.1} % of \
+         the cloud's {diagonal:.0} mm diagonal, over {} %)",
+        100.0 * median / diagonal,
+        100.0 * MAX_MEDIAN_GAP
+    );
+    if force {
+        return Ok(Some(format!("{what} (--force)")));
+    }
+    Err(StageError::Implausible {
+        what,
+        hint: "most of the surface is not in the data — normals that disagree, or a cluster of stray points; \
+               --force keeps it"
+            .into(),
+    })
+}
+
+/// Refuses a cloud with a NaN or infinite position or normal (every later distance would be NaN) or
+/// a zero normal.
+pub(super) fn check_finite(cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
+    let bad_point = cloud.positions.iter().position(|p| !p.coords.iter().all(|x| x.is_finite()));
+    let bad_normal = cloud.normals.and_then(|n| n.iter().position(|v| !v.iter().all(|x| x.is_finite())));
+    if let Some(index) = bad_point.into_iter().chain(bad_normal).min() {
+        return Err(StageError::NonFinite { index });
+    }
+    if let Some(n) = cloud.normals {
+        let zero: Vec<usize> = (0..n.len()).filter(|&i| n[i].norm_squared() <= 1e-24).collect();
+        if let Some(&index) = zero.first() {
+            return Err(StageError::ZeroNormal { index, count: zero.len() });
+        }
+    }
+    Ok(())
+}
+
+/// A reconstructed mesh as it is written: with its vertex normals, which viewers shade by, and the
+/// colours of `colours` where given.
+pub fn mesh_for_output(mesh: &TriMesh, colours: Option<Vec<[u8; 3]>>) -> PolyMesh {
+    PolyMesh { normals: Some(mesh.vertex_normals()), colors: colours, ..mesh.to_poly() }
+}
+
+/// Each mesh vertex's colour from the cloud it was made from: the inverse-distance mean of its four
+/// nearest coloured samples (a vertex lies between samples, and one sample's noise should not be its
+/// colour). `None` when the cloud has no colour.
+pub fn mesh_colours(mesh: &TriMesh, cloud: &PointCloud, tree: &PointTree) -> Option<Vec<[u8; 3]>> {
+    use rayon::prelude::*;
+    let colors = cloud.colors.as_ref().filter(|c| !c.is_empty())?;
+    Some(
+        mesh.vertices
+            .par_iter()
+            .map(|v| {
+                let (mut sum, mut den) = ([0.0; 3], 0.0);
+                for j in tree.nearest_k(v, 4) {
+                    let w = 1.0 / ((cloud.positions[j] - v).norm() + 1e-6);
+                    for c in 0..3 {
+                        sum[c] += w * colors[j][c] as Real;
+                    }
+                    den += w;
+                }
+                sum.map(|s| (s / den).round().clamp(0.0, 255.0) as u8)
+            })
+            .collect(),
+    )
+}
+
+/// The close stage's code version.
+pub const CLOSE: StageCode = StageCode { stage: "close", version: 1 };
+/// The mesh stage's code version (reconstruction, finish, support check, colours).
+pub const MESH: StageCode = StageCode { stage: "mesh", version: 1 };
+
+/// What the closed cloud is made from besides the fused cloud: the closing parameters.
+pub fn close_fingerprint(params: &CloseParams) -> Fingerprint {
+    Fingerprint::new(CLOSE, json!({ "close": params }))
+}
+
+/// Closing a turntable scan's openings: flat caps of samples over its open base and top (object
+/// frame), so reconstruction closes them flat ([`crate::reconstruct::closing`]).
+pub fn close(cloud: &PointCloud, params: &CloseParams) -> Result<(PointCloud, CloseReport), StageError> {
+    check_finite(cloud.borrowed())?;
+    Ok(close_openings(cloud, params))
+}
+
+/// The mesh stage as `process` runs it: reconstruction, its finish, and where the mesh may go.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct MeshParams {
+    /// The reconstruction method and its parameters.
+    pub reconstruct: ReconstructParams,
+    /// Base and trim.
+    pub finish: FinishParams,
+    /// The platter plane, where the base is cut (object z = 0 on a turntable); `None`: not known.
+    pub platter_z: Option<Real>,
+    /// The working volume's top (the object's, as the merge found it): no surface above it.
+    pub top_z: Option<Real>,
+    /// Keep a mesh the data does not support ([`check_support`]), warned of.
+    #[serde(skip)]
+    pub force: bool,
+}
+
+/// What the mesh stage made: the mesh, the same mesh as it is written (vertex normals, colours), its
+/// record and what it warns of (each about the mesh, for the caller to name its file).
+#[derive(Debug, Clone)]
+pub struct MeshMade {
+    /// The finished triangle mesh.
+    pub mesh: TriMesh,
+    /// The mesh as written ([`mesh_for_output`]): with vertex normals and the cloud's colours.
+    pub output: PolyMesh,
+    /// The reconstruction's and the finish's reports.
+    pub report: MeshReport,
+    /// What the caller should say (the top cut, a base not cut or not closed, a forced support
+    /// check, self-intersections left).
+    pub warnings: Vec<String>,
+}
+
+/// What a mesh is made from besides its cloud.
+pub fn mesh_fingerprint(params: &MeshParams) -> Fingerprint {
+    Fingerprint::new(
+        MESH,
+        json!({
+            "reconstruct": params.reconstruct,
+            "finish": params.finish,
+            "platter_z": params.platter_z,
+            "top_z": params.top_z,
+        }),
+    )
+}
+
+/// The mesh stage: reconstructs `input` (ch. 5), finishes it (base, trim), cuts it at the working
+/// volume's top, checks that the data supports it (an error unless forced) and colours it from the
+/// cloud. One k-d tree over the samples serves the area weights, the support check and the colours.
+/// `scanrig process`, `scanrig reconstruct` and the Python bindings all mesh through this function.
+pub fn mesh(input: &PointCloud, params: &MeshParams) -> Result<MeshMade, StageError> {
+    params.validate()?;
+    let tree = PointTree::new(&input.positions);
+    let (mesh, reconstructed) = reconstruct_in(input, &params.reconstruct, Some(&tree))?;
+    let (mut mesh, mut finish) = finish(mesh, input, &params.finish, params.platter_z, reconstructed.cell())?;
+    let mut warnings = Vec::new();
+    if let Some(z) = params.top_z {
+        let high = mesh.vertices.iter().map(|p| p.z).fold(Real::NEG_INFINITY, Real::max);
+        if let Some((cut, r)) = crate::reconstruct::top_cut::cut_top(&mesh, z)? {
+            // A millimetre of the low-pass's rounding is the reconstruction's own: recorded, not warned of.
+            if high > z + 1.0 {
+                warnings.push(format!(
+                    "the reconstruction rose to {high:.1} mm, above the working volume's top at {z:.1} mm (the \
+                     object's top as the merge found it): cut flat there ({} triangles removed)",
+                    r.removed
+                ));
+            }
+            (mesh, finish.top) = (cut, Some(r));
+        }
+    }
+    if let Some(b) = finish.base.filter(|b| b.outline_edges == 0) {
+        warnings.push(format!(
+            "the mesh does not reach {} mm above the platter, so its base was not cut ({:?}): the object seems not \
+             to stand on the platter (check the rig's [turntable])",
+            b.z + b.skirt,
+            b.base
+        ));
+    }
+    if let Some(b) = finish.base.filter(|b| b.base == Base::Flat && !b.closed) {
+        warnings.push(format!(
+            "the flat base at z = {} did not close the mesh ({} outline edges capped by {} triangles); slicers may \
+             refuse it (--base open or closed to choose otherwise)",
+            b.z, b.outline_edges, b.cap_triangles
+        ));
+    }
+    // Checked before anything is written: unforced, an unsupported mesh leaves no mesh file.
+    warnings.extend(check_support(&mesh, input, &tree, params.force)?);
+    let colours = mesh_colours(&mesh, input, &tree);
+    drop(tree);
+    let output = mesh_for_output(&mesh, colours);
+    if let ReconstructReport::Adfft(a) = &reconstructed
+        && a.self_intersections.remaining > 0
+    {
+        warnings.push(format!(
+            "the mesh still intersects itself in {} triangle pairs after repair; slicers may refuse it",
+            a.self_intersections.remaining
+        ));
+    }
+    Ok(MeshMade { mesh, output, report: MeshReport { reconstruct: reconstructed, finish }, warnings })
+}
