@@ -46,3 +46,14 @@ pub fn file(e: rig::Error) -> PyErr {
 pub fn stage(e: impl std::error::Error + 'static) -> PyErr {
     StageError::new_err(chain(&e))
 }
+
+/// What a reader could not keep, as Python `UserWarning`s (one per sentence, each naming the file):
+/// the same sentences the command line prints, so nothing is dropped in silence here either.
+pub fn warn_each(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
+    let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
+    for w in warnings {
+        let message = std::ffi::CString::new(w.replace('\0', " ")).expect("NULs replaced");
+        PyErr::warn(py, &category, &message, 1)?;
+    }
+    Ok(())
+}

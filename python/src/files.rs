@@ -18,24 +18,13 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
-/// What a reader could not keep, as Python `UserWarning`s (one per sentence, each naming the file):
-/// the same sentences the command line prints, so nothing is dropped in silence here either.
-pub(crate) fn warn_each(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
-    let category = py.get_type::<pyo3::exceptions::PyUserWarning>();
-    for w in warnings {
-        let message = std::ffi::CString::new(w.replace('\0', " ")).expect("NULs replaced");
-        PyErr::warn(py, &category, &message, 1)?;
-    }
-    Ok(())
-}
-
 /// Reads a point cloud (any format scanrig reads, by extension). Returns a dict of arrays: points
 /// (N×3 float64), normals, colors (N×3 uint8), confidence (float32), view_id (uint32) — None where
 /// the file has none. What the file holds that cannot be kept is named in a `UserWarning`.
 #[pyfunction]
 fn read_cloud(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     let read = py.detach(|| rig::read_cloud_reported(&path)).map_err(errors::file)?;
-    warn_each(py, &read.warnings)?;
+    errors::warn_each(py, &read.warnings)?;
     let cloud = read.value;
     let d = PyDict::new(py);
     d.set_item("points", arrays::points_out(py, cloud.positions))?;
@@ -76,7 +65,7 @@ fn write_cloud(
 #[pyfunction]
 fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     let read = py.detach(|| rig::read_mesh_reported(&path)).map_err(errors::file)?;
-    warn_each(py, &read.warnings)?;
+    errors::warn_each(py, &read.warnings)?;
     let mesh = read.value;
     let tri = mesh.triangulate();
     let d = PyDict::new(py);

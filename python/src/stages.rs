@@ -168,7 +168,7 @@ fn reconstruct<'py>(
     let normals = Some(nrm.into_rows(normals).vectors().to_vec());
     let cloud = PointCloud { normals, ..PointCloud::from_positions(xyz.into_rows(points).points().to_vec()) };
     let made = interruptible(py, move || stages::mesh(&cloud, &mp))?.map_err(errors::stage)?;
-    crate::files::warn_each(py, &made.warnings)?;
+    errors::warn_each(py, &made.warnings)?;
     let mesh = made.mesh;
     Ok((arrays::points_out(py, mesh.vertices), arrays::triangles_out(py, &mesh.faces), report(py, &made.report)?))
 }
