@@ -6,10 +6,10 @@
 use crate::cli::{CalibrateArgs, CalibrateTarget};
 use crate::progress::Progress;
 use anyhow::{Context, Result};
+use calib::CalibReport;
 use calib::workflow::{Orientation, Step, Target, camera_only};
 use calib::{BoardSpec, CameraOptions, RigCalibParams};
 use rig::Rig;
-use serde_json::{Value, json};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -100,10 +100,9 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         progress.update(what, done, total)
     })?;
     progress.finish();
-    let warnings: Vec<String> =
-        report["warnings"].as_array().into_iter().flatten().filter_map(|w| w.as_str().map(str::to_string)).collect();
-    for s in report["skipped"].as_array().into_iter().flatten() {
-        eprintln!("note: skipped the {} step: {}", s["step"].as_str().unwrap_or("?"), s["why"].as_str().unwrap_or("?"));
+    let warnings = report.warnings.clone();
+    for s in &report.skipped {
+        eprintln!("note: skipped the {} step: {}", s.step, s.why);
     }
     for w in &warnings {
         eprintln!("warning: {w}");
@@ -116,9 +115,8 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
         if let Some(yaml) = &args.yaml {
             rig::opencv_yaml::write_camera(yaml, &rig.camera)?;
         }
-        report.insert("rig".into(), json!(args.out));
+        report.rig = Some(args.out.clone());
     }
-    let report = Value::Object(report);
     rig::write_atomic(&report_path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     // The page too, implausible or not: that is when a user most needs to look.
     let turn = params.orientation;
@@ -172,94 +170,73 @@ fn import(args: &CalibrateArgs, source: &Path) -> Result<()> {
 }
 
 /// `v`'s numbers with `digits` decimals, space- or comma-joined by the caller.
-fn list(v: &Value, digits: usize) -> Vec<String> {
-    v.as_array().into_iter().flatten().map(|x| format!("{:.*}", digits, x.as_f64().unwrap_or(f64::NAN))).collect()
+fn list(v: &[f64], digits: usize) -> Vec<String> {
+    v.iter().map(|x| format!("{x:.digits$}")).collect()
 }
 
-/// "  NAME WxH: fx …  fy …  cx …  cy … px" of a lens report.
-fn lens_line(o: &mut impl Write, name: &str, v: &Value) -> Result<()> {
-    let f = |k: &str| v[k].as_f64().unwrap_or(f64::NAN);
-    writeln!(
-        o,
-        "  {name} {}x{}: fx {:.3}  fy {:.3}  cx {:.3}  cy {:.3} px",
-        v["width"],
-        v["height"],
-        f("fx"),
-        f("fy"),
-        f("cx"),
-        f("cy")
-    )?;
+/// "  NAME WxH: fx …  fy …  cx …  cy … px" of a lens.
+fn lens_line(o: &mut impl Write, name: &str, size: (u32, u32), f: [f64; 4]) -> Result<()> {
+    writeln!(o, "  {name} {}x{}: fx {:.3}  fy {:.3}  cx {:.3}  cy {:.3} px", size.0, size.1, f[0], f[1], f[2], f[3])?;
     Ok(())
 }
 
-fn print(args: &CalibrateArgs, r: &Value, report_path: &Path) -> Result<()> {
+fn print(args: &CalibrateArgs, r: &CalibReport, report_path: &Path) -> Result<()> {
     let mut o = std::io::stdout().lock();
     if args.json {
         serde_json::to_writer_pretty(&mut o, r)?;
         writeln!(o)?;
         return Ok(());
     }
-    let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
-    writeln!(
-        o,
-        "{}: board found in {} of {} images",
-        args.out.display(),
-        r["board_found"]["found"],
-        r["board_found"]["of"]
-    )?;
-    if let Some(c) = r.get("camera") {
-        lens_line(&mut o, "camera", c)?;
-        let d: Vec<String> = list(&c["distortion"], 5);
-        writeln!(o, "    distortion (k1 k2 p1 p2 k3) {}", d.join(" "))?;
-        writeln!(o, "    RMS reprojection error {:.3} px", f(&c["rms_px"]))?;
-        for v in c["outlier_views"].as_array().into_iter().flatten() {
-            writeln!(o, "    outlier view: {}", v.as_str().unwrap_or("?"))?;
+    writeln!(o, "{}: board found in {} of {} images", args.out.display(), r.board_found.found, r.board_found.of)?;
+    if let Some(c) = &r.camera {
+        lens_line(&mut o, "camera", (c.lens.width, c.lens.height), [c.lens.fx, c.lens.fy, c.lens.cx, c.lens.cy])?;
+        writeln!(o, "    distortion (k1 k2 p1 p2 k3) {}", list(&c.lens.distortion, 5).join(" "))?;
+        writeln!(o, "    RMS reprojection error {:.3} px", c.rms_px)?;
+        for v in &c.outlier_views {
+            writeln!(o, "    outlier view: {}", v.display())?;
         }
     }
-    if let Some(t) = r.get("turntable") {
-        let p: Vec<String> = list(&t["point_mm"], 3);
-        let d: Vec<String> = list(&t["direction"], 5);
-        let fit = t
-            .get("rms_px")
-            .map_or(format!("circles RMS {:.3} mm", f(&t["circle_rms_mm"])), |v| format!("RMS {:.3} px", f(v)));
+    if let Some(t) = &r.turntable {
+        let fit = match t.rms_px {
+            Some(rms) => format!("RMS {rms:.3} px"),
+            None => format!("circles RMS {:.3} mm", t.circle_rms_mm.unwrap_or(f64::NAN)),
+        };
         writeln!(
             o,
             "  turntable: platter centre ({}) mm, axis ({}); {} views, {fit}",
-            p.join(", "),
-            d.join(", "),
-            t["views"]
+            list(&t.point_mm, 3).join(", "),
+            list(&t.direction, 5).join(", "),
+            t.views
         )?;
     }
-    for l in r.get("lasers").and_then(Value::as_array).into_iter().flatten() {
-        let n: Vec<String> = list(&l["normal"], 5);
+    for l in r.lasers.iter().flatten() {
         writeln!(
             o,
             "  laser {}: normal ({}), distance {:.3} mm; {} points from {} views, spread RMS {:.3} mm",
-            l["laser"],
-            n.join(", "),
-            f(&l["distance_mm"]),
-            l["inliers"],
-            l["views"],
-            f(&l["spread_rms_mm"])
+            l.laser,
+            list(&l.normal, 5).join(", "),
+            l.distance_mm,
+            l.inliers,
+            l.views,
+            l.spread_rms_mm
         )?;
     }
-    if let Some(p) = r.get("projector") {
-        lens_line(&mut o, "projector", p)?;
-        let t: Vec<String> = list(&p["translation_mm"], 3);
-        writeln!(o, "    camera → projector translation ({}) mm", t.join(", "))?;
+    if let Some(p) = &r.projector {
+        lens_line(&mut o, "projector", (p.lens.width, p.lens.height), [p.lens.fx, p.lens.fy, p.lens.cx, p.lens.cy])?;
+        writeln!(o, "    camera → projector translation ({}) mm", list(&p.translation_mm, 3).join(", "))?;
         writeln!(
             o,
             "    RMS: projector alone {:.3} px; stereo {:.3} px (camera {:.3}, projector {:.3}); {} corners, {} skipped",
-            f(&p["projector_rms_px"]),
-            f(&p["stereo_rms_px"]),
-            f(&p["stereo_camera_rms_px"]),
-            f(&p["stereo_projector_rms_px"]),
-            p["corners_used"],
-            p["corners_skipped"]
+            p.projector_rms_px,
+            p.stereo_rms_px,
+            p.stereo_camera_rms_px,
+            p.stereo_projector_rms_px,
+            p.corners_used,
+            p.corners_skipped
         )?;
     }
-    for m in r["not_found"].as_array().into_iter().flatten() {
-        writeln!(o, "  no board in {}: {}", m["image"].as_str().unwrap_or("?"), m["why"].as_str().unwrap_or("?"))?;
+    for m in &r.not_found {
+        writeln!(o, "  no board in {}: {}", m.image.display(), m.why)?;
     }
     writeln!(o, "  report: {}", report_path.display())?;
     Ok(())

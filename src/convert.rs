@@ -1,6 +1,7 @@
 //! `scanrig convert`: a mesh or a cloud from one file format to another.
 
 use crate::cli::ConvertArgs;
+use crate::json_outputs::{Converted, ConvertedKind};
 use anyhow::{Context, Result};
 use rig::ply::{Encoding, Precision, WriteOptions};
 use rig::{MeshFormat, PolyMesh};
@@ -29,7 +30,10 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
                     rig::ply::write_range_grid(&args.output, &grid, &opts)?;
                     let valid = grid.valid_count();
                     if args.json {
-                        let json = serde_json::json!({"output": args.output, "kind": "range_grid", "width": grid.width, "height": grid.height, "points": valid});
+                        let json = Converted {
+                            output: &args.output,
+                            what: ConvertedKind::RangeGrid { width: grid.width, height: grid.height, points: valid },
+                        };
                         println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
                     } else {
                         println!(
@@ -93,7 +97,9 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             check(too_large(&mut m.vertices.iter()))?;
             rig::write_mesh(&args.output, &m, &opts)?;
             if args.json {
-                let json = serde_json::json!({"output": args.output, "kind": "mesh", "vertices": m.vertices.len(), "faces": m.face_count(), "warnings": warnings});
+                let what =
+                    ConvertedKind::Mesh { vertices: m.vertices.len(), faces: m.face_count(), warnings: &warnings };
+                let json = Converted { output: &args.output, what };
                 println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
             } else {
                 println!("{}: {} vertices, {} faces", args.output.display(), m.vertices.len(), m.face_count());
@@ -110,7 +116,10 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             check(too_large(&mut cloud.positions.iter()))?;
             rig::write_cloud(&args.output, &cloud, &opts).with_context(|| "writing the point cloud")?;
             if args.json {
-                let json = serde_json::json!({"output": args.output, "kind": "cloud", "points": cloud.len(), "warnings": warnings});
+                let json = Converted {
+                    output: &args.output,
+                    what: ConvertedKind::Cloud { points: cloud.len(), warnings: &warnings },
+                };
                 println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
             } else {
                 println!("{}: {} points", args.output.display(), cloud.len());

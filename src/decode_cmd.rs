@@ -89,7 +89,7 @@ pub fn run(args: &DecodeArgs) -> Result<()> {
         })?;
         rig::ply::write_range_grid(&args.out, &grid, &rig::ply::WriteOptions::default().with_units("mm"))?;
         if args.json {
-            let json = serde_json::json!({"output": args.out, "report": report, "triangulate": gr});
+            let json = crate::json_outputs::Triangulated { output: &args.out, report: &report, triangulate: &gr };
             println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
             return Ok(());
         }
@@ -105,7 +105,7 @@ pub fn run(args: &DecodeArgs) -> Result<()> {
     rig::npy::write(&args.out, &map.to_npy())?;
     rig::image::write_png(&preview, &map.preview(pw, ph), false)?;
     if args.json {
-        let json = serde_json::json!({"output": args.out, "preview": preview, "report": report});
+        let json = crate::json_outputs::Decoded { output: &args.out, preview: &preview, report: &report };
         println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
         return Ok(());
     }

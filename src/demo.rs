@@ -125,16 +125,16 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         "  accuracy           {}  (median {:.4} mm = {:.4} % of the object's diagonal from the truth surface; \
          {:.2} % of visible lit pixels decoded; {:.4} % of points over 1 % of the diagonal off{})",
         args.out.join("accuracy.json").display(),
-        acc["median_mm"].as_f64().unwrap_or(f64::NAN),
-        acc["median_percent_of_diagonal"].as_f64().unwrap_or(f64::NAN),
-        acc["decoded_percent"].as_f64().unwrap_or(f64::NAN),
-        acc["outlier_percent"].as_f64().unwrap_or(f64::NAN),
+        acc.median_mm,
+        acc.median_percent_of_diagonal,
+        acc.decoded_percent,
+        acc.outlier_percent,
         if args.rig.is_some() { "; with the given rig" } else { "" }
     )?;
     rig::write_atomic(&args.out.join("accuracy.json"), serde_json::to_string_pretty(&acc)?.as_bytes())?;
     writeln!(text, "  the ground-truth object is {}", scan.join("truth/object.ply").display())?;
     if args.json {
-        let json = serde_json::json!({ "simulation": sim_report, "process": report, "accuracy": acc });
+        let json = crate::json_outputs::Demo { simulation: &sim_report, process: &report, accuracy: &acc };
         println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
     } else {
         print!("{text}");
@@ -171,20 +171,25 @@ fn accuracy(
     camera: &rig::PinholeCamera,
     views: usize,
     diag: f64,
-) -> Result<serde_json::Value> {
+) -> Result<crate::json_outputs::Accuracy> {
     let mut acc = sim::truth::ViewAccuracy::default();
     for v in 0..views {
-        let grid = rig::ply::read_range_grid(&processed.join(format!("views/view_{v:03}.ply")))?;
-        acc.add(sim::truth::view_accuracy(&scan.join(format!("truth/view_{v:03}")), camera, &grid, 0.01 * diag)?);
+        let grid = rig::ply::read_range_grid(&processed.join(process::pipeline::layout::Layout::grid(v)))?;
+        acc.add(sim::truth::view_accuracy(
+            &scan.join(rig::scan_folder::ScanLayout::truth(v)),
+            camera,
+            &grid,
+            0.01 * diag,
+        )?);
     }
     let median = acc.median();
-    Ok(serde_json::json!({
-        "views": views,
-        "points_on_object": acc.distances.len(),
-        "median_mm": median,
-        "diagonal_mm": diag,
-        "median_percent_of_diagonal": 100.0 * median / diag,
-        "decoded_percent": 100.0 * acc.decoded_of_visible_lit as f64 / acc.visible_lit.max(1) as f64,
-        "outlier_percent": 100.0 * acc.far as f64 / acc.decoded.max(1) as f64,
-    }))
+    Ok(crate::json_outputs::Accuracy {
+        views,
+        points_on_object: acc.distances.len(),
+        median_mm: median,
+        diagonal_mm: diag,
+        median_percent_of_diagonal: 100.0 * median / diag,
+        decoded_percent: 100.0 * acc.decoded_of_visible_lit as f64 / acc.visible_lit.max(1) as f64,
+        outlier_percent: 100.0 * acc.far as f64 / acc.decoded.max(1) as f64,
+    })
 }

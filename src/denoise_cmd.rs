@@ -65,11 +65,14 @@ pub fn run(args: &DenoiseArgs) -> Result<()> {
             significant(report.rms_displacement.last().copied().unwrap_or(0.0)),
             report.seconds
         );
-        reports.push(serde_json::json!({ "input": input, "output": out, "report": report }));
+        reports.push(crate::json_outputs::DenoisedGrid { input, output: out, report });
     }
     if args.json {
         let mut o = std::io::stdout().lock();
-        serde_json::to_writer_pretty(&mut o, &crate::outputs::versioned(&serde_json::json!({ "grids": reports })))?;
+        serde_json::to_writer_pretty(
+            &mut o,
+            &crate::outputs::versioned(&crate::json_outputs::Denoised { grids: reports }),
+        )?;
         writeln!(o)?;
     }
     Ok(())

@@ -10,6 +10,7 @@ mod denoise_cmd;
 mod fuse_cmd;
 mod info;
 mod inputs;
+mod json_outputs;
 mod outputs;
 mod pages;
 mod process_cmd;

@@ -81,14 +81,14 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
     let peak = rig::memory::peak_resident_bytes();
     let mut o = std::io::stdout().lock();
     if args.json {
-        let json = serde_json::json!({
-            "report": report,
-            "finish": finished,
-            "topology": t,
-            "genus": t.genus(),
-            "seconds": seconds,
-            "peak_resident_bytes": peak,
-        });
+        let json = crate::json_outputs::Reconstructed {
+            report,
+            finish: finished,
+            genus: t.genus(),
+            topology: t,
+            seconds,
+            peak_resident_bytes: peak,
+        };
         serde_json::to_writer_pretty(&mut o, &crate::outputs::versioned(&json))?;
         writeln!(o)?;
     } else {

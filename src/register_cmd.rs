@@ -28,7 +28,7 @@ pub fn run(args: &RegisterArgs) -> Result<()> {
     rig::write_atomic(&poses_path, &process::pipeline::stages::poses_json(&poses))?;
     let mut o = std::io::stdout().lock();
     if args.json {
-        let json = serde_json::json!({ "report": report, "poses": poses });
+        let json = crate::json_outputs::Registered { report: &report, poses: &poses };
         serde_json::to_writer_pretty(&mut o, &crate::outputs::versioned(&json))?;
         writeln!(o)?;
     } else {

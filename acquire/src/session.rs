@@ -286,7 +286,7 @@ pub fn run(
         }
         turntable.move_to(plan.angles[v]).map_err(|e| tt_err(v, &manifest, e))?;
         std::thread::sleep(plan.settle);
-        let dir = out.join(format!("frames/view_{v:03}"));
+        let dir = out.join(rig::scan_folder::ScanLayout::frames(v));
         std::fs::create_dir_all(&dir).map_err(|e| rig::Error::io(&dir, e))?;
         for (f, frame) in manifest.views[v].frames.clone().iter().enumerate() {
             let shot = Shot { view: v, frame: f, pattern: frame.pattern };

@@ -64,7 +64,7 @@ pub mod normals;
 pub mod preview;
 
 pub use decode::projector_map::ProjectorMap;
-pub use decode::structured_light::{DecodeError, DecodeParams, decode_view};
+pub use decode::structured_light::{DecodeError, DecodeParams, DecodeReport, decode_view};
 pub use pipeline::stages::StageError;
 pub use pipeline::{ProcessParams, ProcessReport, Stage, process_scan};
 

@@ -65,8 +65,7 @@ fn run<'py>(py: Python<'py>, captures: PathBuf, target: Target, o: Options) -> P
         calib::calibrate_rig(&positions, base.as_ref(), &params, |_, _, _| {})
     })?
     .map_err(errors::stage)?;
-    let warnings: Vec<String> =
-        r["warnings"].as_array().into_iter().flatten().filter_map(|w| w.as_str().map(str::to_string)).collect();
+    let warnings = &r.warnings;
     if !warnings.is_empty() && !o.force {
         return Err(errors::StageError::new_err(format!(
             "the calibration cannot be right: {}; fix the captures or the options, or give force=True to take it anyway",
@@ -75,7 +74,7 @@ fn run<'py>(py: Python<'py>, captures: PathBuf, target: Target, o: Options) -> P
     }
     if let Some(out) = &o.out {
         rig.write(out).map_err(errors::file)?;
-        r.insert("rig".into(), serde_json::json!(out));
+        r.rig = Some(out.clone());
     }
     Ok((rig.to_toml_string(), report(py, &r)?))
 }

@@ -39,6 +39,29 @@ pub const PROGRESS_NAME: &str = "scan.progress";
 /// The scan-folder format this code reads and writes.
 pub const SCAN_FORMAT: u32 = 1;
 
+/// Every path inside a scan folder, spelled once (relative to the folder): each view's frames and
+/// the simulator's truth (the manifest and its journal are [`MANIFEST_NAME`] and [`PROGRESS_NAME`]).
+/// The simulator, a capture session and the importers write these; `process` reads them through the
+/// manifest.
+pub struct ScanLayout;
+
+impl ScanLayout {
+    /// View `v`'s frame folder.
+    pub fn frames(v: usize) -> String {
+        format!("frames/view_{v:03}")
+    }
+
+    /// Frame `f` of view `v`, showing `pattern`.
+    pub fn frame(v: usize, f: usize, pattern: &Pattern) -> String {
+        format!("{}/{f:02}_{}.png", Self::frames(v), pattern.name())
+    }
+
+    /// View `v`'s ground truth (a simulated scan's).
+    pub fn truth(v: usize) -> String {
+        format!("truth/view_{v:03}")
+    }
+}
+
 /// How the scan was captured.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -140,10 +163,7 @@ impl Manifest {
                     frames: patterns
                         .iter()
                         .enumerate()
-                        .map(|(f, p)| Frame {
-                            file: format!("frames/view_{v:03}/{f:02}_{}.png", p.name()),
-                            pattern: *p,
-                        })
+                        .map(|(f, p)| Frame { file: ScanLayout::frame(v, f, p), pattern: *p })
                         .collect(),
                     complete: false,
                     held: false,

@@ -188,7 +188,7 @@ pub fn simulate_board(
         let t1 = Instant::now();
         write_view(out, cfg, &g, &lights, &manifest.views[v].frames.clone(), opts, v, &view_pose)?;
         if opts.truth {
-            let dir = out.join(format!("truth/view_{v:03}"));
+            let dir = out.join(rig::scan_folder::ScanLayout::truth(v));
             let m = camera_from_board.to_homogeneous();
             let pose = NpyArray { shape: vec![4, 4], data: NpyData::F64(m.transpose().iter().copied().collect()) };
             rig::npy::write(&dir.join("board_pose.npy"), &pose)?;

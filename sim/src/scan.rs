@@ -140,7 +140,7 @@ pub(crate) fn write_view(
     v: usize,
     pose: &Isometry3,
 ) -> Result<(), Error> {
-    let dir = out.join(format!("frames/view_{v:03}"));
+    let dir = out.join(rig::scan_folder::ScanLayout::frames(v));
     std::fs::create_dir_all(&dir).map_err(|e| Error::File(rig::Error::io(&dir, e)))?;
     lights.par_iter().zip(frames).enumerate().try_for_each(|(f, (light, frame))| -> Result<(), Error> {
         let img = render_frame(g, cfg, light, frame_key(opts.seed, v, f));
@@ -155,7 +155,7 @@ pub(crate) fn write_view(
         std::fs::write(&path, bytes).map_err(|e| Error::File(rig::Error::io(&path, e)))
     })?;
     if opts.truth {
-        truth::write_view(&out.join(format!("truth/view_{v:03}")), g, pose, cfg.rig.camera.fx)?;
+        truth::write_view(&out.join(rig::scan_folder::ScanLayout::truth(v)), g, pose, cfg.rig.camera.fx)?;
     }
     Ok(())
 }

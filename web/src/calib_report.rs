@@ -8,9 +8,10 @@ use crate::page::{Page, facts, file_links, relative_link, warnings};
 use crate::picture::{jpeg_url, mark, thumbnail, to_rgb};
 use crate::plot::{bars, num, vectors};
 use crate::scene::Scene;
+use calib::CalibReport;
+use calib::workflow::report::{BoardPose, BoardView, CameraReport};
 use rig::image::Image8;
 use rig::math::{Isometry3, Point3, Real, Translation3, UnitQuaternion, Vector3};
-use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -18,29 +19,24 @@ use std::path::Path;
 const MAX_THUMBS: usize = 60;
 const THUMB: u32 = 240;
 
-fn f(v: &Value) -> Real {
-    v.as_f64().unwrap_or(Real::NAN)
+fn pose(rotation_vector: [Real; 3], translation_mm: [Real; 3]) -> Option<Isometry3> {
+    let (r, t) = (Vector3::from(rotation_vector), Vector3::from(translation_mm));
+    (r.iter().chain(t.iter()).all(|x| x.is_finite()))
+        .then(|| Isometry3::from_parts(Translation3::from(t), UnitQuaternion::from_scaled_axis(r)))
 }
 
-fn vec3(v: &Value) -> Option<Vector3> {
-    let a = v.as_array()?;
-    (a.len() == 3).then(|| Vector3::new(f(&a[0]), f(&a[1]), f(&a[2])))
-}
-
-fn pose(v: &Value) -> Option<Isometry3> {
-    let r = vec3(&v["rotation_vector"])?;
-    let t = vec3(&v["translation_mm"])?;
-    Some(Isometry3::from_parts(Translation3::from(t), UnitQuaternion::from_scaled_axis(r)))
-}
-
-fn points2(v: &Value) -> Vec<[Real; 2]> {
-    v.as_array().into_iter().flatten().map(|p| [f(&p[0]), f(&p[1])]).collect()
+fn board_pose(p: &BoardPose) -> Option<Isometry3> {
+    pose(p.rotation_vector, p.translation_mm)
 }
 
 /// The page for a calibration `report` (the JSON `calibrate` writes), written to `path` atomically.
 /// `read_image` reads a board image as the calibration saw it (turned the same way); images it
 /// cannot read are listed without a thumbnail.
-pub fn write(path: &Path, report: &Value, read_image: &dyn Fn(&Path) -> Option<Image8>) -> Result<usize, PageError> {
+pub fn write(
+    path: &Path,
+    report: &CalibReport,
+    read_image: &dyn Fn(&Path) -> Option<Image8>,
+) -> Result<usize, PageError> {
     let dir = path.parent().unwrap_or(Path::new("."));
     let html = build(
         report,
@@ -53,103 +49,82 @@ pub fn write(path: &Path, report: &Value, read_image: &dyn Fn(&Path) -> Option<I
 }
 
 /// The page's HTML; `dir` is the folder it will be written to (links are relative to it).
-pub fn build(report: &Value, name: String, dir: &Path, read_image: &dyn Fn(&Path) -> Option<Image8>) -> String {
+pub fn build(report: &CalibReport, name: String, dir: &Path, read_image: &dyn Fn(&Path) -> Option<Image8>) -> String {
     let mut page = Page::new(
         &format!("Calibration report: {}", name.trim_end_matches(".report.html")),
         "written by scanrig calibrate",
     );
-    let cam = &report["camera"];
-    let found = &report["board_found"];
-    let board = &report["board"];
+    let (board, found) = (&report.board, &report.board_found);
     let mut rows: Vec<(&str, String)> = vec![(
         "board",
         format!(
             "{}×{} inner corners, {} mm squares; found in {} of {} images",
-            board["cols"],
-            board["rows"],
-            num(f(&board["square_mm"])),
-            found["found"],
-            found["of"]
+            board.cols,
+            board.rows,
+            num(board.square_mm),
+            found.found,
+            found.of
         ),
     )];
-    if cam.is_object() {
+    if let Some(cam) = &report.camera {
         rows.push((
             "camera",
             format!(
                 "{}×{} px, fx {} fy {} cx {} cy {} px; distortion (k1 k2 p1 p2 k3) {}; <b>RMS {:.3} px</b>",
-                cam["width"],
-                cam["height"],
-                num(f(&cam["fx"])),
-                num(f(&cam["fy"])),
-                num(f(&cam["cx"])),
-                num(f(&cam["cy"])),
-                cam["distortion"]
-                    .as_array()
-                    .into_iter()
-                    .flatten()
-                    .map(|d| format!("{:.4}", f(d)))
-                    .collect::<Vec<_>>()
-                    .join(" "),
-                f(&cam["rms_px"])
+                cam.lens.width,
+                cam.lens.height,
+                num(cam.lens.fx),
+                num(cam.lens.fy),
+                num(cam.lens.cx),
+                num(cam.lens.cy),
+                cam.lens.distortion.iter().map(|d| format!("{d:.4}")).collect::<Vec<_>>().join(" "),
+                cam.rms_px
             ),
         ));
     }
-    let proj = &report["projector"];
-    if proj.is_object() {
+    if let Some(proj) = &report.projector {
         rows.push((
             "projector",
             format!(
                 "{}×{} px, fx {} fy {}; RMS {:.3} px alone, stereo {:.3} px ({} views)",
-                proj["width"],
-                proj["height"],
-                num(f(&proj["fx"])),
-                num(f(&proj["fy"])),
-                f(&proj["projector_rms_px"]),
-                f(&proj["stereo_rms_px"]),
-                proj["views"]
+                proj.lens.width,
+                proj.lens.height,
+                num(proj.lens.fx),
+                num(proj.lens.fy),
+                proj.projector_rms_px,
+                proj.stereo_rms_px,
+                proj.views
             ),
         ));
     }
-    let axis = &report["turntable"];
-    if axis.is_object() {
-        let fit = if axis["rms_px"].is_number() {
-            format!("RMS {:.3} px", f(&axis["rms_px"]))
-        } else {
-            format!("circle RMS {:.3} mm", f(&axis["circle_rms_mm"]))
+    if let Some(axis) = &report.turntable {
+        let fit = match axis.rms_px {
+            Some(rms) => format!("RMS {rms:.3} px"),
+            None => format!("circle RMS {:.3} mm", axis.circle_rms_mm.unwrap_or(Real::NAN)),
         };
-        rows.push((
-            "turntable axis",
-            format!("{} from {} views; {fit}", esc(axis["method"].as_str().unwrap_or("")), axis["views"]),
-        ));
+        rows.push(("turntable axis", format!("{} from {} views; {fit}", esc(&axis.method), axis.views)));
     }
-    let warn: Vec<String> =
-        report["warnings"].as_array().into_iter().flatten().filter_map(|w| w.as_str().map(String::from)).collect();
     let mut h = facts(&rows);
     h.push_str("<h3>Warnings</h3>");
-    h.push_str(&warnings(&warn));
-    let missed: Vec<String> = report["not_found"]
-        .as_array()
-        .into_iter()
-        .flatten()
-        .map(|m| format!("{}: {}", m["image"].as_str().unwrap_or("?"), m["why"].as_str().unwrap_or("?")))
-        .collect();
+    h.push_str(&warnings(&report.warnings));
+    let missed: Vec<String> = report.not_found.iter().map(|m| format!("{}: {}", m.image.display(), m.why)).collect();
     if !missed.is_empty() {
         h.push_str("<h3>No board found</h3>");
         h.push_str(&warnings(&missed));
     }
     page.section("summary", "Summary", h);
 
-    let views = cam["views"].as_array().cloned().unwrap_or_default();
-    if !views.is_empty() {
-        page.section("camera", "Camera views", camera_views(cam, &views, read_image));
+    let views: &[BoardView] = report.camera.as_ref().map_or(&[], |c| &c.views);
+    if let Some(cam) = report.camera.as_ref().filter(|c| !c.views.is_empty()) {
+        page.section("camera", "Camera views", camera_views(cam, read_image));
     }
-    if let Some(lasers) = report["lasers"].as_array().filter(|l| !l.is_empty()) {
-        let labels: Vec<String> = lasers.iter().map(|l| format!("laser {}", l["laser"])).collect();
+    if let Some(lasers) = report.lasers.as_ref().filter(|l| !l.is_empty()) {
+        let labels: Vec<String> = lasers.iter().map(|l| format!("laser {}", l.laser)).collect();
         let mut h = String::from("<div class=\"plots\">");
         h.push_str(&bars(
             "Laser planes: RMS distance of the line's points from the fitted plane (mm)",
             &labels,
-            &lasers.iter().map(|l| f(&l["spread_rms_mm"])).collect::<Vec<_>>(),
+            &lasers.iter().map(|l| l.spread_rms_mm).collect::<Vec<_>>(),
             &[],
             "mm",
             "",
@@ -157,7 +132,7 @@ pub fn build(report: &Value, name: String, dir: &Path, read_image: &dyn Fn(&Path
         h.push_str(&bars(
             "Laser planes: largest distance of an inlier from the plane (mm)",
             &labels,
-            &lasers.iter().map(|l| f(&l["spread_max_mm"])).collect::<Vec<_>>(),
+            &lasers.iter().map(|l| l.spread_max_mm).collect::<Vec<_>>(),
             &[],
             "mm",
             "",
@@ -167,43 +142,39 @@ pub fn build(report: &Value, name: String, dir: &Path, read_image: &dyn Fn(&Path
             let _ = write!(
                 h,
                 "<tr><td>{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td><td class=\"num\">{}</td></tr>",
-                l["laser"],
-                l["points"],
-                l["inliers"],
-                l["views"],
-                num(f(&l["distance_mm"]))
+                l.laser,
+                l.points,
+                l.inliers,
+                l.views,
+                num(l.distance_mm)
             );
         }
         h.push_str("</table>");
         page.section("lasers", "Laser planes", h);
     }
-    let scene = scene(report, &views);
+    let scene = scene(report, views);
     if scene.layer_count() > 0 {
         page.viewer_section("poses", "Board poses in 3D (camera frame, mm)", scene);
     }
     let mut files = Vec::new();
-    for key in ["rig"] {
-        if let Some(p) = report[key].as_str() {
-            files.push(relative_link(Path::new(p), dir));
-        }
+    if let Some(p) = &report.rig {
+        files.push(relative_link(p, dir));
     }
     files.push(format!("{}.report.json", name.trim_end_matches(".report.html")));
     page.section("files", "Files", file_links(&files));
     page.render()
 }
 
-fn camera_views(cam: &Value, views: &[Value], read_image: &dyn Fn(&Path) -> Option<Image8>) -> String {
-    let (w, ht) = (cam["width"].as_u64().unwrap_or(1) as u32, cam["height"].as_u64().unwrap_or(1) as u32);
-    let outliers: Vec<&str> = cam["outlier_views"].as_array().into_iter().flatten().filter_map(Value::as_str).collect();
+fn camera_views(cam: &CameraReport, read_image: &dyn Fn(&Path) -> Option<Image8>) -> String {
+    let (w, ht, views) = (cam.lens.width.max(1), cam.lens.height.max(1), &cam.views);
     // The image's folder and name: capture layouts name every view's frame alike (view_004/00_white.png).
-    let name = |v: &Value| {
-        let p = Path::new(v["image"].as_str().unwrap_or("?"));
-        let parts: Vec<String> = p.iter().rev().take(2).map(|c| c.to_string_lossy().into_owned()).collect();
+    let name = |v: &BoardView| {
+        let parts: Vec<String> = v.image.iter().rev().take(2).map(|c| c.to_string_lossy().into_owned()).collect();
         parts.into_iter().rev().collect::<Vec<_>>().join("/")
     };
     let labels: Vec<String> = (0..views.len()).map(|i| i.to_string()).collect();
-    let rms: Vec<Real> = views.iter().map(|v| f(&v["rms_px"])).collect();
-    let flagged: Vec<bool> = views.iter().map(|v| outliers.contains(&v["image"].as_str().unwrap_or(""))).collect();
+    let rms: Vec<Real> = views.iter().map(|v| v.rms_px).collect();
+    let flagged: Vec<bool> = views.iter().map(|v| cam.outlier_views.contains(&v.image)).collect();
     let mut h = String::from("<div class=\"plots\">");
     h.push_str(&bars(
         "Reprojection RMS per view (px); outlier views (over 3× the median and 0.5 px) in orange",
@@ -215,7 +186,7 @@ fn camera_views(cam: &Value, views: &[Value], read_image: &dyn Fn(&Path) -> Opti
     ));
     let mut arrows = Vec::new();
     for v in views {
-        for (c, r) in points2(&v["corners"]).iter().zip(points2(&v["residuals_px"])) {
+        for (c, r) in v.corners.iter().zip(&v.residuals_px) {
             arrows.push([c[0], c[1], r[0], r[1]]);
         }
     }
@@ -239,16 +210,16 @@ fn camera_views(cam: &Value, views: &[Value], read_image: &dyn Fn(&Path) -> Opti
     ));
     h.push_str("</div><h3>Images</h3><p class=\"note\">Corners found in green, the first corner in red.</p><div class=\"thumbs\">");
     for (i, v) in views.iter().enumerate().take(MAX_THUMBS) {
-        let corners = points2(&v["corners"]);
-        let image = v["image"].as_str().map(Path::new).and_then(read_image);
-        let rms = f(&v["rms_px"]);
+        let corners = &v.corners;
+        let image = read_image(&v.image);
+        let rms = v.rms_px;
         let rms = if rms.is_finite() { format!("{rms:.3} px") } else { "no RMS".into() };
         let caption = format!("{i}: {} — {rms}", esc(&name(v)));
         match image {
             Some(img) => {
                 let mut rgb = to_rgb(&img);
                 let r = (img.width / 300).max(2) as i64;
-                mark(&mut rgb, &corners, r, [40, 220, 90]);
+                mark(&mut rgb, corners, r, [40, 220, 90]);
                 mark(&mut rgb, &corners[..corners.len().min(1)], r + 1, [240, 40, 60]);
                 let _ = write!(
                     h,
@@ -269,16 +240,15 @@ fn camera_views(cam: &Value, views: &[Value], read_image: &dyn Fn(&Path) -> Opti
 }
 
 /// Board outlines at their poses, the camera's and projector's frusta, the turntable axis.
-fn scene(report: &Value, views: &[Value]) -> Scene {
+fn scene(report: &CalibReport, views: &[BoardView]) -> Scene {
     let mut scene = Scene::new();
     scene.set_camera_frame();
-    let board = &report["board"];
-    let sq = f(&board["square_mm"]);
-    let (cols, rows) = (board["cols"].as_f64().unwrap_or(2.0), board["rows"].as_f64().unwrap_or(2.0));
+    let sq = report.board.square_mm;
+    let (cols, rows) = (report.board.cols.max(2) as Real, report.board.rows.max(2) as Real);
     let mut segments = Vec::new();
     let mut far: Real = 0.0;
     for (i, v) in views.iter().enumerate() {
-        let Some(p) = pose(&v["pose"]) else { continue };
+        let Some(p) = board_pose(&v.pose) else { continue };
         let colour = crate::plot::COLOURS[i % crate::plot::COLOURS.len()];
         let c = u32::from_str_radix(&colour[1..], 16).unwrap_or(0xffffff);
         let rgb = [(c >> 16) as u8, (c >> 8) as u8, c as u8];
@@ -295,7 +265,6 @@ fn scene(report: &Value, views: &[Value]) -> Scene {
         return scene;
     }
     scene.add_lines("boards", &segments, true);
-    let cam = &report["camera"];
     let frustum = |size: (Real, Real), fx: Real, fy: Real, cx: Real, cy: Real, at: Isometry3, depth: Real, colour| {
         let corners = [[0.0, 0.0], [size.0, 0.0], [size.0, size.1], [0.0, size.1]]
             .map(|[u, v]| at * Point3::new((u - cx) / fx * depth, (v - cy) / fy * depth, depth));
@@ -308,36 +277,33 @@ fn scene(report: &Value, views: &[Value]) -> Scene {
         s
     };
     let depth = 0.25 * far.max(100.0);
-    let mut rigs = frustum(
-        (f(&cam["width"]), f(&cam["height"])),
-        f(&cam["fx"]),
-        f(&cam["fy"]),
-        f(&cam["cx"]),
-        f(&cam["cy"]),
-        Isometry3::identity(),
-        depth,
-        [230, 230, 230],
-    );
-    let proj = &report["projector"];
-    if let Some(p) = pose(proj) {
+    let mut rigs = Vec::new();
+    if let Some(cam) = &report.camera {
+        let size = (cam.lens.width as Real, cam.lens.height as Real);
+        let at = Isometry3::identity();
+        rigs.extend(frustum(size, cam.lens.fx, cam.lens.fy, cam.lens.cx, cam.lens.cy, at, depth, [230, 230, 230]));
+    }
+    if let Some(proj) = &report.projector
+        && let Some(p) = pose(proj.rotation_vector, proj.translation_mm)
+    {
         // from_camera maps camera points into the projector's frame; its inverse places the projector.
+        let size = (proj.lens.width as Real, proj.lens.height as Real);
         rigs.extend(frustum(
-            (f(&proj["width"]), f(&proj["height"])),
-            f(&proj["fx"]),
-            f(&proj["fy"]),
-            f(&proj["cx"]),
-            f(&proj["cy"]),
+            size,
+            proj.lens.fx,
+            proj.lens.fy,
+            proj.lens.cx,
+            proj.lens.cy,
             p.inverse(),
             depth,
             [240, 180, 60],
         ));
     }
-    if rigs.iter().all(|s| s.0.iter().chain(s.1.iter()).all(|v| v.is_finite())) {
+    if !rigs.is_empty() && rigs.iter().all(|s| s.0.iter().chain(s.1.iter()).all(|v| v.is_finite())) {
         scene.add_lines("camera and projector", &rigs, true);
     }
-    let axis = &report["turntable"];
-    if let (Some(p), Some(d)) = (vec3(&axis["point_mm"]), vec3(&axis["direction"])) {
-        let (p, d) = (Point3::from(p), d.normalize() * 0.3 * far.max(100.0));
+    if let Some(axis) = &report.turntable {
+        let (p, d) = (Point3::from(axis.point_mm), Vector3::from(axis.direction).normalize() * 0.3 * far.max(100.0));
         scene.add_lines("turntable axis", &[(p - 0.2 * d, p + d, [220, 60, 60])], true);
     }
     scene
@@ -368,6 +334,9 @@ mod tests {
             "not_found": [{"image": "caps/view_003/00_white.png", "why": "no board <i>"}],
             "warnings": ["the principal point is 40 % off centre"],
         });
+        // Read as `calibrate` writes it: a NaN figure is JSON null, read back as NaN.
+        let report: CalibReport = serde_json::from_value(report).unwrap();
+        assert!(report.camera.as_ref().unwrap().views[1].rms_px.is_nan());
         let html = build(&report, "rig.report.html".into(), Path::new(""), &|_| None);
         let text = markup(&html);
         for bad in ["NaN", "inf", "<i>"] {

@@ -6,14 +6,16 @@
 pub mod captures;
 pub mod limits;
 pub mod plausible;
+pub mod report;
 mod steps;
 
 pub use captures::{Orientation, Position, load};
+pub use report::{CALIB_REPORT_SCHEMA_VERSION, CalibReport};
 
 use crate::{CalibError, CameraOptions, Gray, find_corners};
+use report::{BoardFound, BoardReport, NotFound, Skipped};
 use rig::math::{Point3, Real};
 use rig::{Laser, PinholeCamera, Projector, Rig};
-use serde_json::{Value, json};
 use std::path::PathBuf;
 use steps::{Board, Found};
 
@@ -187,12 +189,6 @@ pub struct RigCalibParams {
     pub projector_size: Option<(u32, u32)>,
 }
 
-/// The report: one JSON object with a section per step that ran (`camera`, `turntable`, `lasers`,
-/// `projector`), `not_found` (images without the board, and why), `board_found`, `skipped` (steps
-/// the captures were taken for but could not serve, and why) and `warnings` (the
-/// [`plausible::findings`]: figures no working rig gives).
-pub type CalibReport = serde_json::Map<String, Value>;
-
 /// A rig of just a camera, for a rig file that does not exist yet.
 pub fn camera_only(name: &str, camera: PinholeCamera) -> Rig {
     Rig {
@@ -263,11 +259,11 @@ pub fn calibrate_rig(
     }
 
     let wants = |s: Step| params.target == Target::All || params.target == Target::Only(s);
-    let mut report = CalibReport::new();
+    let mut report = CalibReport { schema_version: CALIB_REPORT_SCHEMA_VERSION, ..Default::default() };
     let camera = if wants(Step::Camera) {
         let (camera, r) =
             steps::camera(&found, &board, (width, height), params.lens).map_err(|e| with_missed(e, &missed))?;
-        report.insert("camera".into(), r);
+        report.camera = Some(r);
         camera
     } else {
         let step = match params.target {
@@ -293,12 +289,12 @@ pub fn calibrate_rig(
     let mut skipped = Vec::new();
     if params.target == Target::All && on_turntable < 3 && captured_on_turntable > 0 {
         // Turntable captures were taken, so the axis was wanted: say why there is none.
-        skipped.push(json!({
-            "step": "turntable",
-            "why": format!(
+        skipped.push(Skipped {
+            step: "turntable".into(),
+            why: format!(
                 "the board was found in {on_turntable} of the {captured_on_turntable} turntable views; the axis needs 3"
             ),
-        }));
+        });
     }
     let mut sweep_poses = vec![None; found.len()];
     if params.target == Target::Only(Step::Turntable) || (params.target == Target::All && on_turntable >= 3) {
@@ -306,7 +302,7 @@ pub fn calibrate_rig(
         let (axis, poses, r) = steps::turntable(&found, &board, &camera, height)?;
         rig.set_turntable(axis);
         sweep_poses = poses;
-        report.insert("turntable".into(), r);
+        report.turntable = Some(r);
     } else if params.target == Target::All
         && captured_on_turntable == 0
         && found.len() >= 3
@@ -318,16 +314,16 @@ pub fn calibrate_rig(
         // axis is kept, and the report says why.
         let height = params.corner_height_mm.unwrap_or(2.0 * square_mm);
         let fit = steps::turntable(&found, &board, &camera, height);
-        let spread = fit.as_ref().ok().and_then(|f| f.2["circle_rms_mm"].as_f64());
+        let spread = fit.as_ref().ok().and_then(|f| f.2.circle_rms_mm);
         match fit {
             Ok((axis, poses, r)) if spread.is_some_and(|s| s <= plausible::MAX_SPREAD_MM) => {
                 rig.set_turntable(axis);
                 sweep_poses = poses;
-                report.insert("turntable".into(), r);
+                report.turntable = Some(r);
             }
-            other => skipped.push(json!({
-                "step": "turntable",
-                "why": format!(
+            other => skipped.push(Skipped {
+                step: "turntable".into(),
+                why: format!(
                     "the captures record no turntable angles and the board's corners fit no turn about one axis \
                      ({}): the axis was kept from the base rig",
                     match other {
@@ -335,7 +331,7 @@ pub fn calibrate_rig(
                         Ok(_) => format!("{:.2} mm RMS off circles", spread.unwrap_or(f64::NAN)),
                     }
                 ),
-            })),
+            }),
         }
     }
     let has_lasers = found.iter().any(|f| !f.position.lasers.is_empty());
@@ -347,7 +343,7 @@ pub fn calibrate_rig(
                 None => rig.lasers.push(Laser { name: format!("laser {i}"), plane, colour: Default::default() }),
             }
         }
-        report.insert("lasers".into(), r);
+        report.lasers = Some(r);
     }
     let has_structured = found.iter().any(|f| !f.position.structured.is_empty());
     if params.target == Target::Only(Step::Projector) || (params.target == Target::All && has_structured) {
@@ -360,16 +356,13 @@ pub fn calibrate_rig(
         })?;
         let gamma = rig.projector.as_ref().map_or(1.0, |p| p.gamma);
         rig.projector = Some(Projector { lens, from_camera, gamma });
-        report.insert("projector".into(), r);
+        report.projector = Some(r);
     }
-    report.insert(
-        "not_found".into(),
-        missed.iter().map(|(f, why)| json!({"image": f, "why": why})).collect::<Vec<_>>().into(),
-    );
-    report.insert("board_found".into(), json!({"found": found.len(), "of": positions.len()}));
-    report.insert("board".into(), json!({"cols": cols, "rows": rows, "square_mm": square_mm}));
-    report.insert("skipped".into(), Value::Array(skipped));
-    report.insert("warnings".into(), plausible::findings(&rig, &report).into());
+    report.not_found = missed.iter().map(|(f, why)| NotFound { image: f.clone(), why: why.clone() }).collect();
+    report.board_found = BoardFound { found: found.len(), of: positions.len() };
+    report.board = BoardReport { cols, rows, square_mm };
+    report.skipped = skipped;
+    report.warnings = plausible::findings(&rig, &report);
     Ok((rig, report))
 }
 

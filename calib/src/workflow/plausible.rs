@@ -5,8 +5,8 @@
 //! naming the figure and its limit; `scanrig calibrate` warns with them and refuses to write the rig
 //! unless forced.
 
+use super::report::CalibReport;
 use rig::{PinholeCamera, Rig};
-use serde_json::Value;
 
 /// Reprojection error beyond which corners were matched to the wrong squares or the images are
 /// unusable: sub-pixel corners give a good calibration well under 0.5 px, a poor one about 1 px.
@@ -31,10 +31,8 @@ fn beyond(v: f64, limit: f64) -> bool {
 }
 
 /// The findings for `rig` as calibrated, with `report` as [`crate::calibrate_rig`] wrote it.
-pub fn findings(rig: &Rig, report: &serde_json::Map<String, Value>) -> Vec<String> {
+pub fn findings(rig: &Rig, report: &CalibReport) -> Vec<String> {
     let mut out = Vec::new();
-    // A NaN figure is written to JSON as null: present but null counts as NaN, which is not plausible.
-    let num = |section: &Value, key: &str| section.get(key).map(|v| v.as_f64().unwrap_or(f64::NAN));
     let mut rms = |what: &str, value: Option<f64>| {
         if let Some(v) = value
             && beyond(v, MAX_RMS_PX)
@@ -45,32 +43,23 @@ pub fn findings(rig: &Rig, report: &serde_json::Map<String, Value>) -> Vec<Strin
             ));
         }
     };
-    if let Some(c) = report.get("camera") {
-        rms("camera", num(c, "rms_px"));
-    }
-    if let Some(t) = report.get("turntable") {
-        rms("turntable sweep", num(t, "rms_px"));
-    }
-    if let Some(p) = report.get("projector") {
-        rms("projector–camera stereo", num(p, "stereo_rms_px"));
-    }
-    if let Some(t) = report.get("turntable")
-        && let Some(v) = num(t, "circle_rms_mm")
+    rms("camera", report.camera.as_ref().map(|c| c.rms_px));
+    rms("turntable sweep", report.turntable.as_ref().and_then(|t| t.rms_px));
+    rms("projector–camera stereo", report.projector.as_ref().map(|p| p.stereo_rms_px));
+    if let Some(v) = report.turntable.as_ref().and_then(|t| t.circle_rms_mm)
         && beyond(v, MAX_SPREAD_MM)
     {
         out.push(format!("the board's corners lie {v:.2} mm RMS off circles about one axis (over {MAX_SPREAD_MM} mm)"));
     }
-    for l in report.get("lasers").and_then(Value::as_array).into_iter().flatten() {
-        if let Some(v) = num(l, "spread_rms_mm")
-            && beyond(v, MAX_SPREAD_MM)
-        {
+    for l in report.lasers.iter().flatten() {
+        if beyond(l.spread_rms_mm, MAX_SPREAD_MM) {
             out.push(format!(
-                "laser {}'s points lie {v:.2} mm RMS off one plane (over {MAX_SPREAD_MM} mm)",
-                l.get("laser").unwrap_or(&Value::Null)
+                "laser {}'s points lie {:.2} mm RMS off one plane (over {MAX_SPREAD_MM} mm)",
+                l.laser, l.spread_rms_mm
             ));
         }
     }
-    if report.contains_key("camera") {
+    if report.camera.is_some() {
         out.extend(lens_findings("camera", &rig.camera));
     }
     // The rules every rig reader holds a rig to (rig::limits): a calibration that breaks one would
@@ -140,20 +129,20 @@ mod tests {
     #[test]
     fn a_large_reprojection_error_is_named_with_its_step() {
         let rig = crate::workflow::camera_only("r", camera());
-        let mut report = serde_json::Map::new();
-        report.insert("turntable".into(), serde_json::json!({"rms_px": 8.3}));
+        let sweep = |rms: f64| super::super::report::TurntableReport { rms_px: Some(rms), ..Default::default() };
+        let mut report = CalibReport { turntable: Some(sweep(8.3)), ..Default::default() };
         let f = findings(&rig, &report);
         assert!(f.len() == 1 && f[0].starts_with("turntable sweep RMS reprojection error 8.30 px"), "{f:?}");
-        report.insert("turntable".into(), serde_json::json!({"rms_px": f64::NAN}));
+        report.turntable = Some(sweep(f64::NAN));
         assert_eq!(findings(&rig, &report).len(), 1, "NaN (null in JSON) is not plausible");
     }
 
     #[test]
     fn a_rig_no_reader_would_take_is_a_finding() {
         let mut rig = crate::workflow::camera_only("r", camera());
-        assert!(findings(&rig, &serde_json::Map::new()).is_empty());
+        assert!(findings(&rig, &CalibReport::default()).is_empty());
         rig.platter_radius_mm = Some(-3.0);
-        let f = findings(&rig, &serde_json::Map::new());
+        let f = findings(&rig, &CalibReport::default());
         assert!(f.len() == 1 && f[0].contains("platter_radius_mm"), "{f:?}");
     }
 }

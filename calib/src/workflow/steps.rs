@@ -2,6 +2,7 @@
 //! intrinsics, the turntable axis, laser planes and the projector.
 
 use super::captures::{Orientation, Position};
+use super::report::{BoardPose, BoardView, CameraReport, LaserReport, LensReport, ProjectorReport, TurntableReport};
 use super::{Step, WorkflowError as E};
 use crate::laser_plane::on_even_print;
 use crate::turntable_axis::board_pose;
@@ -13,7 +14,6 @@ use decode::laser_line::{LaserParams, detect_line_within};
 use decode::structured_light::{DecodeParams, decode_view};
 use rig::math::{Isometry3, Point2, Point3, Real};
 use rig::{LaserPlane, PinholeCamera, TurntableAxis};
-use serde_json::{Value, json};
 use std::path::PathBuf;
 
 /// A position whose board was found: its index in the capture list and its corners.
@@ -44,7 +44,7 @@ pub fn camera(
     board: &Board,
     size: (u32, u32),
     opts: CameraOptions,
-) -> Result<(PinholeCamera, Value), E> {
+) -> Result<(PinholeCamera, CameraReport), E> {
     let views: Vec<View> =
         found.iter().map(|f| View { object: board.object.clone(), image: f.corners.clone() }).collect();
     let c = calibrate_camera(&views, size.0, size.1, opts).map_err(|source| E::Step {
@@ -52,22 +52,21 @@ pub fn camera(
         source,
         files: format!("images with the board: {}", some_files(found.iter().map(|f| &f.position.lit))),
     })?;
-    let report = json!({
-        "width": size.0, "height": size.1,
-        "fx": c.camera.fx, "fy": c.camera.fy, "cx": c.camera.cx, "cy": c.camera.cy,
-        "distortion": c.camera.distortion.to_opencv(),
-        "rms_px": c.rms,
-        "views": found.iter().zip(&c.view_rms).zip(&c.poses).map(|((f, r), pose)| view_json(f, *r, pose, board, &c.camera)).collect::<Vec<_>>(),
-        "outlier_views": c.outlier_views.iter().map(|&v| &found[v].position.lit).collect::<Vec<_>>(),
-        "iterations": c.iterations,
-    });
+    let views = found.iter().zip(&c.view_rms).zip(&c.poses);
+    let report = CameraReport {
+        lens: LensReport::of(&c.camera),
+        rms_px: c.rms,
+        views: views.map(|((f, r), pose)| board_view(f, *r, pose, board, &c.camera)).collect(),
+        outlier_views: c.outlier_views.iter().map(|&v| found[v].position.lit.clone()).collect(),
+        iterations: c.iterations,
+    };
     Ok((c.camera, report))
 }
 
 /// One board view of the camera step: its image, RMS, the corners found, each corner's
 /// reprojection residual (reprojected − found, px) and the board's pose (camera from board), for the
 /// calibration report to draw.
-fn view_json(f: &Found, rms: Real, pose: &Isometry3, board: &Board, camera: &PinholeCamera) -> Value {
+fn board_view(f: &Found, rms: Real, pose: &Isometry3, board: &Board, camera: &PinholeCamera) -> BoardView {
     let round = |v: Real| (v * 1e4).round() / 1e4;
     let residuals: Vec<[Real; 2]> = board
         .object
@@ -78,15 +77,16 @@ fn view_json(f: &Found, rms: Real, pose: &Isometry3, board: &Board, camera: &Pin
             None => [Real::NAN, Real::NAN],
         })
         .collect();
-    json!({
-        "image": f.position.lit, "rms_px": rms,
-        "corners": f.corners.iter().map(|c| [round(c.x), round(c.y)]).collect::<Vec<_>>(),
-        "residuals_px": residuals,
-        "pose": {
-            "rotation_vector": pose.rotation.scaled_axis().as_slice(),
-            "translation_mm": pose.translation.vector.as_slice(),
+    BoardView {
+        image: f.position.lit.clone(),
+        rms_px: rms,
+        corners: f.corners.iter().map(|c| [round(c.x), round(c.y)]).collect(),
+        residuals_px: residuals,
+        pose: BoardPose {
+            rotation_vector: pose.rotation.scaled_axis().into(),
+            translation_mm: pose.translation.vector.into(),
         },
-    })
+    }
 }
 
 /// The turntable axis: from the views with recorded angles adjusted as one sweep, or without angles
@@ -97,7 +97,7 @@ pub fn turntable(
     board: &Board,
     camera: &PinholeCamera,
     corner_height_mm: Real,
-) -> Result<(TurntableAxis, Vec<Option<Isometry3>>, Value), E> {
+) -> Result<(TurntableAxis, Vec<Option<Isometry3>>, TurntableReport), E> {
     let swept: Vec<usize> = (0..found.len()).filter(|&k| found[k].position.angle_deg.is_some()).collect();
     let names = || some_files(found.iter().map(|f| &f.position.lit));
     if swept.len() >= 3 {
@@ -114,11 +114,15 @@ pub fn turntable(
         for (&k, p) in swept.iter().zip(&fit.poses) {
             poses[k] = Some(*p);
         }
-        let report = json!({
-            "method": "sweep adjusted as one turn about one axis",
-            "point_mm": fit.axis.point.coords.as_slice(), "direction": fit.axis.direction.as_slice(),
-            "rms_px": fit.rms_px, "views": swept.len(), "corner_height_mm": corner_height_mm,
-        });
+        let report = TurntableReport {
+            method: "sweep adjusted as one turn about one axis".into(),
+            point_mm: fit.axis.point.coords.into(),
+            direction: (*fit.axis.direction).into(),
+            rms_px: Some(fit.rms_px),
+            circle_rms_mm: None,
+            views: swept.len(),
+            corner_height_mm,
+        };
         return Ok((fit.axis, poses, report));
     }
     if found.iter().any(|f| f.position.angle_deg.is_some()) || found.len() < 3 {
@@ -131,11 +135,15 @@ pub fn turntable(
         source,
         files: names(),
     })?;
-    let report = json!({
-        "method": "corner circles (no recorded angles)",
-        "point_mm": fit.axis.point.coords.as_slice(), "direction": fit.axis.direction.as_slice(),
-        "circle_rms_mm": fit.circle_rms_mm, "views": fit.views, "corner_height_mm": corner_height_mm,
-    });
+    let report = TurntableReport {
+        method: "corner circles (no recorded angles)".into(),
+        point_mm: fit.axis.point.coords.into(),
+        direction: (*fit.axis.direction).into(),
+        rms_px: None,
+        circle_rms_mm: Some(fit.circle_rms_mm),
+        views: fit.views,
+        corner_height_mm,
+    };
     Ok((fit.axis, vec![None; found.len()], report))
 }
 
@@ -146,7 +154,7 @@ pub fn lasers(
     camera: &PinholeCamera,
     poses: &[Option<Isometry3>],
     turn: Orientation,
-) -> Result<(Vec<LaserPlane>, Value), E> {
+) -> Result<(Vec<LaserPlane>, Vec<LaserReport>), E> {
     let count = found.iter().flat_map(|f| f.position.lasers.iter().map(|l| l.0 + 1)).max().unwrap_or(0);
     if count == 0 {
         return Err(E::NoFrames { step: Step::Laser });
@@ -212,14 +220,19 @@ pub fn lasers(
             source,
             files: format!("laser {i}'s frames: {}", some_files(frames[i].iter())),
         })?;
-        report.push(json!({
-            "laser": i, "normal": fit.plane.normal.as_slice(), "distance_mm": fit.plane.distance,
-            "spread_rms_mm": fit.rms_mm, "spread_max_mm": fit.max_mm,
-            "points": fit.points, "inliers": fit.inliers, "views": fit.views,
-        }));
+        report.push(LaserReport {
+            laser: i,
+            normal: (*fit.plane.normal).into(),
+            distance_mm: fit.plane.distance,
+            spread_rms_mm: fit.rms_mm,
+            spread_max_mm: fit.max_mm,
+            points: fit.points,
+            inliers: fit.inliers,
+            views: fit.views,
+        });
         planes.push(fit.plane);
     }
-    Ok((planes, Value::Array(report)))
+    Ok((planes, report))
 }
 
 /// The projector from the positions with structured-light frames.
@@ -231,7 +244,7 @@ pub fn projector(
     turn: Orientation,
     opts: CameraOptions,
     mut progress: impl FnMut(usize, usize),
-) -> Result<(PinholeCamera, Isometry3, Value), E> {
+) -> Result<(PinholeCamera, Isometry3, ProjectorReport), E> {
     let with: Vec<&Found> = found.iter().filter(|f| !f.position.structured.is_empty()).collect();
     if with.is_empty() {
         return Err(E::NoFrames { step: Step::Projector });
@@ -259,16 +272,18 @@ pub fn projector(
         source,
         files: some_files(with.iter().map(|f| &f.position.lit)),
     })?;
-    let report = json!({
-        "width": size.0, "height": size.1,
-        "fx": p.lens.fx, "fy": p.lens.fy, "cx": p.lens.cx, "cy": p.lens.cy,
-        "distortion": p.lens.distortion.to_opencv(),
-        "rotation_vector": p.from_camera.rotation.scaled_axis().as_slice(),
-        "translation_mm": p.from_camera.translation.vector.as_slice(),
-        "projector_rms_px": p.projector_rms, "stereo_rms_px": p.stereo_rms,
-        "stereo_camera_rms_px": p.stereo_camera_rms, "stereo_projector_rms_px": p.stereo_projector_rms,
-        "views": p.views, "corners_used": p.corners_used, "corners_skipped": p.corners_skipped,
-        "window_px": 2 * half + 1,
-    });
+    let report = ProjectorReport {
+        lens: LensReport::of(&p.lens),
+        rotation_vector: p.from_camera.rotation.scaled_axis().into(),
+        translation_mm: p.from_camera.translation.vector.into(),
+        projector_rms_px: p.projector_rms,
+        stereo_rms_px: p.stereo_rms,
+        stereo_camera_rms_px: p.stereo_camera_rms,
+        stereo_projector_rms_px: p.stereo_projector_rms,
+        views: p.views,
+        corners_used: p.corners_used,
+        corners_skipped: p.corners_skipped,
+        window_px: 2 * half + 1,
+    };
     Ok((p.lens, p.from_camera, report))
 }
