@@ -79,9 +79,11 @@ def _process_view(scan: str, view: int, force: bool) -> list[tuple[str, bytes]]:
         return _scanrig._pack(scratch)
 
 
-def _process_scan(scan: str, out: str, force: bool, *packs: list[tuple[str, bytes]]) -> dict[str, Any]:
+def _process_scan(
+    scan: str, out: str, force: bool, until: Optional[str], *packs: list[tuple[str, bytes]]
+) -> dict[str, Any]:
     _scanrig._adopt(out, list(packs))
-    return _scanrig.process(scan, out, force=force)
+    return _scanrig.process(scan, out, force=force, until=until)
 
 
 def process_scans(
@@ -89,12 +91,14 @@ def process_scans(
     outs: Optional[Sequence[os.PathLike | str]] = None,
     *,
     force: bool = False,
+    until: Optional[str] = None,
     address: Optional[str] = None,
     workers: Optional[int] = None,
 ) -> list[dict[str, Any]]:
-    """Processes scan folders as ``scanrig.process`` does, each view a Ray task and each scan a task
-    after its views; outputs go to ``outs`` (default ``SCAN/processed``). Returns the reports, in the
-    order of ``folders``; the first scan that fails raises its error."""
+    """Processes scan folders as ``scanrig.process`` does (to stage ``until``, as it takes it), each view
+    a Ray task and each scan a task after its views; outputs go to ``outs`` (default
+    ``SCAN/processed``). Returns the reports, in the order of ``folders``; the first scan that fails
+    raises its error."""
     folders = [pathlib.Path(f).resolve() for f in folders]
     outs = [pathlib.Path(o).resolve() for o in outs] if outs is not None else [f / "processed" for f in folders]
     if len(outs) != len(folders):
@@ -106,7 +110,7 @@ def process_scans(
         refs = []
         for scan, out in zip(folders, outs):
             packs = [view_task.remote(str(scan), v, force) for v in _complete_views(scan)]
-            refs.append(scan_task.remote(str(scan), str(out), force, *packs))
+            refs.append(scan_task.remote(str(scan), str(out), force, until, *packs))
         return ray.get(refs)
     finally:
         if started:
@@ -176,6 +180,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p = sub.add_parser("process", help="process scan folders (each into SCAN/processed)")
     p.add_argument("scans", nargs="+", type=pathlib.Path)
     p.add_argument("--force", action="store_true", help="go on past implausible registrations, with warnings")
+    p.add_argument("--until", help="stop after this stage (as `scanrig process --until` takes it)")
     r = sub.add_parser("reconstruct", help="AdFFT of an oriented cloud (PLY, E57, ...) into a mesh")
     r.add_argument("cloud", type=pathlib.Path)
     r.add_argument("-o", "--out", type=pathlib.Path, required=True)
@@ -184,7 +189,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = parser.parse_args(argv)
     try:
         if args.command == "process":
-            reports = process_scans(args.scans, force=args.force, address=args.address, workers=args.workers)
+            reports = process_scans(
+                args.scans, force=args.force, until=args.until, address=args.address, workers=args.workers
+            )
             for scan, rep in zip(args.scans, reports):
                 print(f"{scan}: {rep['total_seconds']:.1f} s, outputs in {scan / 'processed'}")
         else:
