@@ -352,13 +352,19 @@ fn laser_line<'py>(
     let off = off.filter(|o| !o.is_none()).map(|o| image_in(o, "off")).transpose()?.map(turn);
     let texture = texture.filter(|t| !t.is_none()).map(|t| image_in(t, "texture")).transpose()?.map(turn);
     let params = ::process::pipeline::ProcessParams::default().laser;
-    let (line, rep) = interruptible(py, move || {
+    let (line, rep, warnings) = interruptible(py, move || {
         use ::process::pipeline::stages;
-        let (windows, _) = stages::laser_windows(&r, &r.lasers[laser], &params, force)?;
-        let frames = stages::LaserFrames { on: &on, off: off.as_ref(), texture: texture.as_ref() };
+        // Where the line is searched, and what that warns of (a rig without a working volume is
+        // searched whole): said as a UserWarning, as `process` says it in its report.
+        let (windows, warnings) = stages::laser_windows(&r, &r.lasers[laser], &params, force)?;
+        let (texture, misfit) = stages::fitting_texture(texture.as_ref(), &r.camera);
+        let frames = stages::LaserFrames { on: &on, off: off.as_ref(), texture };
+        let warnings: Vec<String> = warnings.into_iter().chain(misfit.map(|w| format!("texture: {w}"))).collect();
         stages::laser_line(&frames, &r.camera, (laser, &r.lasers[laser]), windows.as_ref(), &params)
+            .map(|(line, rep)| (line, rep, warnings))
     })?
     .map_err(errors::stage)?;
+    errors::warn_each(py, &warnings)?;
     let d = PyDict::new(py);
     let pixels: Vec<f32> = line.pixels.iter().flatten().copied().collect();
     let n = line.points.len();

@@ -165,9 +165,13 @@ fn reconstruct<'py>(
     // The mesh stage `process` runs (`stages::mesh`): reconstruction, the base cut at the platter
     // plane where one is given, the cut at the working volume's top, the trim, the support check.
     let mp = stages::MeshParams { reconstruct: params, finish, platter_z, top_z, force };
-    let normals = Some(nrm.into_rows(normals).vectors().to_vec());
-    let cloud = PointCloud { normals, ..PointCloud::from_positions(xyz.into_rows(points).points().to_vec()) };
-    let made = interruptible(py, move || stages::mesh(&cloud, &mp))?.map_err(errors::stage)?;
+    let (rows, normal_rows) = (xyz.into_rows(points), nrm.into_rows(normals));
+    let made = interruptible(py, move || {
+        // Meshed where the arrays lie (C-ordered float64 rows are read in place).
+        let cloud = rig::CloudRef { normals: Some(normal_rows.vectors()), ..rig::CloudRef::positions(rows.points()) };
+        stages::mesh(cloud, &mp)
+    })?
+    .map_err(errors::stage)?;
     errors::warn_each(py, &made.warnings)?;
     let mesh = made.mesh;
     Ok((arrays::points_out(py, mesh.vertices), arrays::triangles_out(py, &mesh.faces), report(py, &made.report)?))

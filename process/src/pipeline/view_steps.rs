@@ -363,11 +363,11 @@ fn laser_step(o: &Out, cx: &ViewCx, vf: &mut ViewFrames, made: &mut ViewDone, k:
     let step = o.step(&[&name], fp, Scope::View, |fp| {
         let imgs = load_colour_frames(&pair, &rig.image)?;
         let windows = cx.windows(k, laser)?;
-        let frames = LaserFrames {
-            on: &imgs[imgs.len() - 1].1,
-            off: off.map(|_| &imgs[0].1),
-            texture: vf.texture.image(&rig.image)?,
-        };
+        let (texture, misfit) = stages::fitting_texture(vf.texture.image(&rig.image)?, &rig.camera);
+        if let Some(why) = misfit.map(|w| format!("view {v}: {w}")).filter(|w| !made.warnings.contains(w)) {
+            made.warnings.push(why);
+        }
+        let frames = LaserFrames { on: &imgs[imgs.len() - 1].1, off: off.map(|_| &imgs[0].1), texture };
         let (points, lr) = stages::laser_line(&frames, &rig.camera, (k, laser), windows.as_ref(), &params.laser)
             .map_err(|source| Error::View { view: v, stage: Stage::Triangulate, source })?;
         let (points, hash) = o.put_sparse(&name, &points, fp, &lr)?;

@@ -8,7 +8,7 @@ pub use crate::reconstruct::base::{Base, BaseReport};
 use crate::reconstruct::closing::{CloseParams, CloseReport, close_openings};
 use crate::reconstruct::global_fft::{FftParams, FftReport, reconstruct_fft_in};
 pub use crate::reconstruct::trim::TrimReport;
-use rig::math::Real;
+use rig::math::{Point3, Real};
 use rig::{PointCloud, PolyMesh, TriMesh};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
@@ -171,7 +171,7 @@ pub const SKIRT_CELLS: Real = 2.0;
 /// surface farther than `params.trim` from `samples` (never the flat base, which no sample need cover).
 pub fn finish(
     mesh: TriMesh,
-    samples: &PointCloud,
+    samples: &[Point3],
     params: &FinishParams,
     platter_z: Option<Real>,
     cell: Real,
@@ -194,7 +194,7 @@ pub fn finish(
         // The base (cap and skirt) is where the object stood: kept by definition, not by samples.
         let base = report.base.filter(|r| r.outline_edges > 0).map(|r| r.z + r.skirt);
         let faces_before = mesh.faces.len();
-        let (trimmed, r) = crate::reconstruct::trim::trim(&mesh, &samples.positions, t, params.trim_fill, base);
+        let (trimmed, r) = crate::reconstruct::trim::trim(&mesh, samples, t, params.trim_fill, base);
         // A trim that takes (nearly) the whole surface is a distance below the data's spacing, not a
         // result.
         if trimmed.faces.len() * 10 < faces_before {
@@ -223,15 +223,15 @@ pub fn finish(
 pub const MAX_MEDIAN_GAP: Real = 0.02;
 
 /// The plausibility check of a reconstruction: the median distance from the mesh's vertices
-/// (sampled, up to 20,000) to the nearest point of `cloud`. Beyond [`MAX_MEDIAN_GAP`] of the
-/// diagonal: an error unless `force`, else the warning to give.
+/// (sampled, up to 20,000) to the nearest of the cloud's `positions` (`tree` is over them). Beyond
+/// [`MAX_MEDIAN_GAP`] of the diagonal: an error unless `force`, else the warning to give.
 pub fn check_support(
     mesh: &TriMesh,
-    cloud: &PointCloud,
+    positions: &[Point3],
     tree: &PointTree,
     force: bool,
 ) -> Result<Option<String>, StageError> {
-    let Some(bounds) = cloud.bounding_box() else { return Ok(None) };
+    let Some(bounds) = rig::Aabb::of(positions) else { return Ok(None) };
     let diagonal = (bounds.max - bounds.min).norm();
     let step = mesh.vertices.len().div_ceil(20_000).max(1);
     let mut gaps: Vec<Real> = mesh.vertices.iter().step_by(step).map(|v| tree.nearest(v).1.sqrt()).collect();
@@ -286,9 +286,9 @@ pub fn mesh_for_output(mesh: &TriMesh, colours: Option<Vec<[u8; 3]>>) -> PolyMes
 /// Each mesh vertex's colour from the cloud it was made from: the inverse-distance mean of its four
 /// nearest coloured samples (a vertex lies between samples, and one sample's noise should not be its
 /// colour). `None` when the cloud has no colour.
-pub fn mesh_colours(mesh: &TriMesh, cloud: &PointCloud, tree: &PointTree) -> Option<Vec<[u8; 3]>> {
+pub fn mesh_colours(mesh: &TriMesh, cloud: rig::CloudRef<'_>, tree: &PointTree) -> Option<Vec<[u8; 3]>> {
     use rayon::prelude::*;
-    let colors = cloud.colors.as_ref().filter(|c| !c.is_empty())?;
+    let colors = cloud.colors.filter(|c| !c.is_empty())?;
     Some(
         mesh.vertices
             .par_iter()
@@ -372,11 +372,13 @@ pub fn mesh_fingerprint(params: &MeshParams) -> Fingerprint {
 /// volume's top, checks that the data supports it (an error unless forced) and colours it from the
 /// cloud. One k-d tree over the samples serves the area weights, the support check and the colours.
 /// `scanrig process`, `scanrig reconstruct` and the Python bindings all mesh through this function.
-pub fn mesh(input: &PointCloud, params: &MeshParams) -> Result<MeshMade, StageError> {
+/// The cloud is borrowed (a caller's arrays are meshed where they lie).
+pub fn mesh<'a>(input: impl Into<rig::CloudRef<'a>>, params: &MeshParams) -> Result<MeshMade, StageError> {
     params.validate()?;
-    let tree = PointTree::new(&input.positions);
+    let input = input.into();
+    let tree = PointTree::new(input.positions);
     let (mesh, reconstructed) = reconstruct_in(input, &params.reconstruct, Some(&tree))?;
-    let (mut mesh, mut finish) = finish(mesh, input, &params.finish, params.platter_z, reconstructed.cell())?;
+    let (mut mesh, mut finish) = finish(mesh, input.positions, &params.finish, params.platter_z, reconstructed.cell())?;
     let mut warnings = Vec::new();
     if let Some(z) = params.top_z {
         let high = mesh.vertices.iter().map(|p| p.z).fold(Real::NEG_INFINITY, Real::max);
@@ -408,7 +410,7 @@ pub fn mesh(input: &PointCloud, params: &MeshParams) -> Result<MeshMade, StageEr
         ));
     }
     // Checked before anything is written: unforced, an unsupported mesh leaves no mesh file.
-    warnings.extend(check_support(&mesh, input, &tree, params.force)?);
+    warnings.extend(check_support(&mesh, input.positions, &tree, params.force)?);
     let colours = mesh_colours(&mesh, input, &tree);
     drop(tree);
     let output = mesh_for_output(&mesh, colours);

@@ -111,8 +111,9 @@ pub const DECODE: StageCode = StageCode { stage: "decode", version: 1 };
 pub const TRIANGULATE: StageCode = StageCode { stage: "triangulate", version: 1 };
 /// The denoise stage's code version.
 pub const DENOISE: StageCode = StageCode { stage: "denoise", version: 1 };
-/// The laser line stage's code version (extraction and triangulation of one laser's frame).
-pub const LASER_LINE: StageCode = StageCode { stage: "laser_line", version: 1 };
+/// The laser line stage's code version (extraction and triangulation of one laser's frame; 2: a texture
+/// frame of another size than the camera's is no longer sampled, clamped, for colours).
+pub const LASER_LINE: StageCode = StageCode { stage: "laser_line", version: 2 };
 
 /// What a decoded map is made from besides its frames' content (added by the runner): the decoding
 /// parameters, the projector's size and how the frames are turned on reading.
@@ -203,6 +204,24 @@ pub fn laser_windows(
     Err(StageError::Implausible { what, hint })
 }
 
+/// A view's texture frame where it is the camera's size; another size cannot be matched to the
+/// camera's pixels, so it is not used (the view has no colour) and the second value says why.
+pub fn fitting_texture<'a>(
+    texture: Option<&'a Image8>,
+    camera: &rig::PinholeCamera,
+) -> (Option<&'a Image8>, Option<String>) {
+    match texture {
+        Some(t) if (t.width, t.height) != (camera.width, camera.height) => {
+            let why = format!(
+                "its texture frame is {}x{}, not the camera's {}x{}: the view has no colour",
+                t.width, t.height, camera.width, camera.height
+            );
+            (None, Some(why))
+        }
+        other => (other, None),
+    }
+}
+
 /// One laser's frames of one view, as the camera sees them (turned as the rig's `[image]` says).
 #[derive(Debug, Clone, Copy)]
 pub struct LaserFrames<'a> {
@@ -239,4 +258,20 @@ pub fn laser_line(
     }
     let report = crate::pipeline::LaserViewReport { laser: laser.0, line, points: points.len() };
     Ok((points, report))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_texture_of_another_size_is_not_used_and_says_why() {
+        let camera = rig::PinholeCamera::ideal(64, 48, 60.0);
+        let (fits, other) = (Image8::gray(64, 48, vec![0; 64 * 48]), Image8::gray(32, 24, vec![0; 32 * 24]));
+        let (t, why) = fitting_texture(Some(&fits), &camera);
+        assert!(t.is_some() && why.is_none());
+        let (t, why) = fitting_texture(Some(&other), &camera);
+        assert!(t.is_none() && why.unwrap().contains("32x24, not the camera's 64x48"));
+        assert_eq!(fitting_texture(None, &camera), (None, None));
+    }
 }
