@@ -607,6 +607,10 @@ pub struct DemoArgs {
     /// `scan/truth/rig.toml` and accuracy is still measured against the truth.
     #[arg(long)]
     pub rig: Option<PathBuf>,
+    /// Stop the processing after this stage: triangulate, denoise, merge, register, fuse, reconstruct
+    /// or remesh (the accuracy is measured on the range grids, so triangulate at the earliest).
+    #[arg(long, value_parser = parse_stage, default_value = "remesh")]
+    pub until: process::Stage,
     /// Print the simulation's and the processing's reports and the accuracy as one JSON object.
     #[arg(long)]
     pub json: bool,

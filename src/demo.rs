@@ -13,6 +13,13 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         cfg = cfg.with_camera_resolution(640, 512);
     }
     anyhow::ensure!(args.views >= 1, "--views must be at least 1");
+    // Refused before minutes of simulation: the accuracy below reads the triangulated range grids.
+    anyhow::ensure!(
+        args.until >= process::Stage::Triangulate,
+        "--until {}: the demo measures its accuracy on the range grids, which triangulate makes; give \
+         triangulate or a later stage",
+        args.until.name()
+    );
     cfg.scan.views = args.views;
     let scan = args.out.join("scan");
     let processed = args.out.join("processed");
@@ -37,7 +44,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     }
     progress.finish();
     crate::progress::note(format!("2/2 processing into {}", processed.display()));
-    let (report, page) = crate::process_cmd::run_pipeline(&scan, &processed, &process::ProcessParams::default())?;
+    let params = process::ProcessParams { until: args.until, ..Default::default() };
+    let (report, page) = crate::process_cmd::run_pipeline(&scan, &processed, &params)?;
     let points: usize = report.views.iter().map(|v| v.points).sum();
     let mut text = String::new();
     writeln!(
