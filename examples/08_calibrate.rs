@@ -9,7 +9,7 @@ use rig::{Manifest, Pattern};
 fn main() {
     // The laser rig at its 640 × 480 readout, a 9 × 6 board of 11 mm squares held in 12 poses before it.
     let cfg = sim::SimConfig::builtin("laser").expect("a built-in config").with_camera_resolution(640, 480);
-    let board = sim::Board { cols: 9, rows: 6, square_mm: 11.0 };
+    let board = sim::Board { cols: 9, rows: 6, square_mm: 11.0, markers: None };
     let distance = cfg.rig.turntable.map(|t| t.point.coords.norm()).unwrap_or(400.0);
     let poses = sim::BoardPoses::held(sim::board::default_fixed_poses(&board, distance, 12));
     let dir = tempfile::tempdir().expect("a temporary folder");

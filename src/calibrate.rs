@@ -48,6 +48,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
             zero_tangential: args.zero_tangential,
             fix_k3: args.fix_k3,
         },
+        lens_model: args.lens_model.into(),
         corner_height_mm: args.corner_height,
         projector_size: args.projector,
     };
@@ -187,10 +188,27 @@ fn print(args: &CalibrateArgs, r: &CalibReport, report_path: &Path) -> Result<()
         writeln!(o)?;
         return Ok(());
     }
-    writeln!(o, "{}: board found in {} of {} images", args.out.display(), r.board_found.found, r.board_found.of)?;
+    let partial = match r.board_found.partial {
+        0 => String::new(),
+        n => format!(" ({n} of them in part)"),
+    };
+    writeln!(
+        o,
+        "{}: board found in {} of {} images{partial}",
+        args.out.display(),
+        r.board_found.found,
+        r.board_found.of
+    )?;
     if let Some(c) = &r.camera {
         lens_line(&mut o, "camera", (c.lens.width, c.lens.height), [c.lens.fx, c.lens.fy, c.lens.cx, c.lens.cy])?;
         writeln!(o, "    distortion (k1 k2 p1 p2 k3) {}", list(&c.lens.distortion, 5).join(" "))?;
+        writeln!(o, "    lens model: estimated {}", c.model.estimated.join(" "))?;
+        for held in &c.model.held {
+            writeln!(o, "      {held}")?;
+        }
+        if !c.coverage.advice.is_empty() {
+            writeln!(o, "    next captures: {}", c.coverage.advice)?;
+        }
         writeln!(o, "    RMS reprojection error {:.3} px", c.rms_px)?;
         for v in &c.outlier_views {
             writeln!(o, "    outlier view: {}", v.display())?;

@@ -404,6 +404,23 @@ pub struct SimArgs {
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LensModelArg {
+    /// The terms the views support.
+    Auto,
+    /// Every term not held fixed.
+    Full,
+}
+
+impl From<LensModelArg> for calib::LensModel {
+    fn from(m: LensModelArg) -> Self {
+        match m {
+            LensModelArg::Auto => calib::LensModel::Auto,
+            LensModelArg::Full => calib::LensModel::Full,
+        }
+    }
+}
+
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SimLayout {
     /// FabScanPi's scan folder and config.json.
     Fabscan,
@@ -725,6 +742,11 @@ pub struct CalibrateArgs {
     /// No k3 term.
     #[arg(long)]
     pub fix_k3: bool,
+    /// The camera's distortion terms: `auto` estimates those the board views support (k3 only when
+    /// eight views or more reach the image's corners, p1 p2 from six views over half the image, the
+    /// report says which and why); `full` estimates every term not held by a --fix flag.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub lens_model: LensModelArg,
     /// Also export the camera in OpenCV's YAML layout.
     #[arg(long)]
     pub yaml: Option<PathBuf>,

@@ -62,7 +62,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
         _ => {}
     }
     if let Some((cols, rows)) = args.board {
-        return run_board(args, &cfg, sim::Board { cols, rows, square_mm: args.square });
+        return run_board(args, &cfg, sim::Board { cols, rows, square_mm: args.square, markers: None });
     }
     let size = args.world.size.unwrap_or(cfg.scene.object_size_mm);
     let offset = rig::Vector3::from(args.offset.unwrap_or([0.0; 3]));
@@ -120,6 +120,7 @@ fn run_board(args: &SimArgs, cfg: &SimConfig, board: sim::Board) -> Result<()> {
     let poses = sim::BoardPoses {
         held: sim::board::default_fixed_poses(&board, distance, held),
         sweep: args.sweep.as_ref().map(|s| s.0.clone()).unwrap_or_default(),
+        covers: Vec::new(),
     };
     let opts = sim::ScanOptions { method: Method::Board, seed: args.world.seed, truth: !args.no_truth };
     eprintln!(

@@ -198,8 +198,38 @@ fn predict(points: &[Point2], grid: &Grid, (i, j): (i32, i32)) -> Option<(Point2
 /// Finds the `cols × rows` inner corners of a chessboard, ordered row-major in the board frame (see
 /// the module notes), refined to sub-pixel accuracy.
 pub fn find_corners(img: &Gray, cols: usize, rows: usize) -> Result<Vec<Point2>, NotFound> {
+    match search(img, cols, rows) {
+        Search::Whole(corners) => Ok(corners),
+        Search::Part { cells, .. } => Err(NotFound::Partial { found: cells.len(), expected: cols * rows }),
+        Search::Nothing(found) if found < 4 => Err(NotFound::TooFewCorners(found, cols * rows)),
+        Search::Nothing(found) => Err(NotFound::Partial { found, expected: cols * rows }),
+    }
+}
+
+/// Grid cells and their (unrefined) pixels.
+pub(crate) type Cells = Vec<((i32, i32), Point2)>;
+
+/// What [`search`] found.
+pub(crate) enum Search {
+    /// The whole board, in board order, refined.
+    Whole(Vec<Point2>),
+    /// The largest grid of corners that is not the whole board: cell → unrefined pixel, cells
+    /// numbered from where the grid was grown (`crate::partial_board` places them on the board).
+    Part {
+        /// Grid cell → pixel.
+        cells: Cells,
+        /// The blur the grid was found at.
+        sigma: f64,
+    },
+    /// No grid; the most corner-like points seen (at most the board's count).
+    Nothing(usize),
+}
+
+/// The board's corners, or else the largest grid of corners seen.
+pub(crate) fn search(img: &Gray, cols: usize, rows: usize) -> Search {
     let expected = cols * rows;
-    let mut best_partial = 0;
+    let mut best_points = 0;
+    let mut best: Option<(Cells, f64)> = None;
     for sigma in [1.5, 3.0, 5.0] {
         let blurred = img.blur(sigma);
         let radius = (2.0 * sigma).round() as usize;
@@ -208,36 +238,40 @@ pub fn find_corners(img: &Gray, cols: usize, rows: usize) -> Result<Vec<Point2>,
         cands.truncate(8 * expected + 400);
         let points: Vec<Point2> =
             cands.iter().map(|c| c.0).filter(|p| is_x_junction(&blurred, p, (2.0 * sigma).max(3.0))).collect();
-        if points.len() < expected {
-            best_partial = best_partial.max(points.len().min(expected));
-            continue;
-        }
+        best_points = best_points.max(points.len().min(expected));
+        // A part of the board is looked for among fewer points than the board has.
         for seed in 0..points.len().min(30) {
             let Some(grid) = grow(&points, seed) else { continue };
-            match board_in(&grid, cols, rows) {
-                Some(cells) => {
-                    let corners: Vec<Point2> = cells.iter().map(|&k| points[k]).collect();
-                    let oriented = orient(img, corners, cols, rows);
-                    let step = (oriented[1] - oriented[0]).norm().min((oriented[cols] - oriented[0]).norm());
-                    let half = ((0.3 * step).round() as usize).clamp(2, 12);
-                    // Gradient orthogonality to settle on the junction, then the saddle of the
-                    // blurred image, which averages the hard edges of a sharp image best.
-                    // σ 2.5 px and a 5 px window: more blur averages the hard edges of a sharp
-                    // image better but shifts the saddle of a foreshortened junction (measured on
-                    // the simulated views: mean error 0.14 px at σ 1.5, 0.10 at 2.5, 0.08 at 5,
-                    // with the focal length drifting up as the blur grows).
-                    let (sharp, soft) = (img.blur(0.7), img.blur(2.5));
-                    return Ok(oriented.iter().map(|p| refine_saddle(&soft, refine(&sharp, *p, half), 5)).collect());
-                }
-                None => best_partial = best_partial.max(grid.len().min(expected)),
+            if points.len() >= expected
+                && let Some(cells) = board_in(&grid, cols, rows)
+            {
+                let corners: Vec<Point2> = cells.iter().map(|&k| points[k]).collect();
+                let oriented = orient(img, corners, cols, rows);
+                let step = (oriented[1] - oriented[0]).norm().min((oriented[cols] - oriented[0]).norm());
+                return Search::Whole(refine_all(img, &oriented, step));
+            }
+            if best.as_ref().is_none_or(|(b, _)| grid.len() > b.len()) {
+                best = Some((grid.iter().map(|(&c, &k)| (c, points[k])).collect(), sigma));
             }
         }
     }
-    if best_partial < 4 {
-        Err(NotFound::TooFewCorners(best_partial, expected))
-    } else {
-        Err(NotFound::Partial { found: best_partial, expected })
+    match best {
+        Some((cells, sigma)) if cells.len() >= 4 => Search::Part { cells, sigma },
+        Some((cells, _)) => Search::Nothing(best_points.max(cells.len())),
+        None => Search::Nothing(best_points),
     }
+}
+
+/// Sub-pixel corners: gradient orthogonality to settle on the junction, then the saddle of the
+/// blurred image, which averages the hard edges of a sharp image best. `step` is the board's
+/// square in pixels near these corners.
+pub(crate) fn refine_all(img: &Gray, corners: &[Point2], step: f64) -> Vec<Point2> {
+    let half = ((0.3 * step).round() as usize).clamp(2, 12);
+    // σ 2.5 px and a 5 px window: more blur averages the hard edges of a sharp image better but
+    // shifts the saddle of a foreshortened junction (measured on the simulated views: mean error
+    // 0.14 px at σ 1.5, 0.10 at 2.5, 0.08 at 5, with the focal length drifting up as the blur grows).
+    let (sharp, soft) = (img.blur(0.7), img.blur(2.5));
+    corners.iter().map(|p| refine_saddle(&soft, refine(&sharp, *p, half), 5)).collect()
 }
 
 /// The board's corners in a grown grid: a fully found `cols × rows` (or transposed) rectangle of cells,
@@ -386,13 +420,13 @@ pub fn refine(img: &Gray, start: Point2, half: usize) -> Point2 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     /// A `cols × rows` (inner corners) board of `square` px squares, rotated by `angle`, with corner 0
     /// at `origin`, rendered 4 × 4 supersampled into a `w × h` grey image; returns the image and the
     /// true corners in board order.
-    fn render(
+    pub(crate) fn render(
         w: usize,
         h: usize,
         cols: usize,

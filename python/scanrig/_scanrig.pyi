@@ -184,6 +184,7 @@ def calibrate_camera(
     fix_principal_point: bool = False,
     zero_tangential: bool = False,
     fix_k3: bool = False,
+    lens_model: str = "auto",
     force: bool = False,
 ) -> tuple[str, dict[str, Any]]:
     """The camera from chessboard captures: (rig TOML text, report)."""
@@ -201,6 +202,7 @@ def calibrate_rig(
     fix_principal_point: bool = False,
     zero_tangential: bool = False,
     fix_k3: bool = False,
+    lens_model: str = "auto",
     force: bool = False,
 ) -> tuple[str, dict[str, Any]]:
     """Camera, projector, laser planes and turntable axis, as the captures allow: (rig TOML text, report)."""

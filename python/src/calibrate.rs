@@ -27,6 +27,7 @@ struct Options {
     out: Option<PathBuf>,
     projector: Option<(u32, u32)>,
     lens: CameraOptions,
+    lens_model: String,
     corner_height: Option<f64>,
     force: bool,
 }
@@ -38,6 +39,15 @@ fn run<'py>(py: Python<'py>, captures: PathBuf, target: Target, o: Options) -> P
             o.board.0, o.board.1
         )));
     }
+    let lens_model = match o.lens_model.as_str() {
+        "auto" => calib::LensModel::Auto,
+        "full" => calib::LensModel::Full,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "lens_model must be \"auto\" (the terms the views support) or \"full\", got {other:?}"
+            )));
+        }
+    };
     if !(o.square > 0.0 && o.square.is_finite()) {
         return Err(PyValueError::new_err(format!("square must be a positive length in mm, got {}", o.square)));
     }
@@ -57,6 +67,7 @@ fn run<'py>(py: Python<'py>, captures: PathBuf, target: Target, o: Options) -> P
         board: BoardSpec { cols: o.board.0 as usize, rows: o.board.1 as usize, square_mm: o.square },
         orientation,
         lens: o.lens,
+        lens_model,
         corner_height_mm: o.corner_height,
         projector_size,
     };
@@ -87,8 +98,10 @@ fn lens(fix_aspect_ratio: bool, fix_principal_point: bool, zero_tangential: bool
 /// folder of images): corners, Zhang's closed form, then Levenberg–Marquardt on the reprojection
 /// error with distortion [k1, k2, p1, p2, k3]. `board` counts inner corners. Returns (rig TOML text,
 /// report dict as `NAME.report.json`); with `out`, the rig file is written (merged into it).
+/// `lens_model`: "auto" estimates the distortion terms the views support (the report's
+/// `camera.model` says which and why), "full" every term not fixed.
 #[pyfunction]
-#[pyo3(signature = (captures, *, board=(9, 6), square=15.0, out=None, rig=None, fix_aspect_ratio=false, fix_principal_point=false, zero_tangential=false, fix_k3=false, force=false))]
+#[pyo3(signature = (captures, *, board=(9, 6), square=15.0, out=None, rig=None, fix_aspect_ratio=false, fix_principal_point=false, zero_tangential=false, fix_k3=false, lens_model="auto".to_string(), force=false))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate_camera<'py>(
     py: Python<'py>,
@@ -101,6 +114,7 @@ fn calibrate_camera<'py>(
     fix_principal_point: bool,
     zero_tangential: bool,
     fix_k3: bool,
+    lens_model: String,
     force: bool,
 ) -> PyResult<(String, Bound<'py, PyAny>)> {
     let o = Options {
@@ -110,6 +124,7 @@ fn calibrate_camera<'py>(
         out,
         projector: None,
         lens: lens(fix_aspect_ratio, fix_principal_point, zero_tangential, fix_k3),
+        lens_model,
         corner_height: None,
         force,
     };
@@ -121,7 +136,7 @@ fn calibrate_camera<'py>(
 /// turntable axis from the board turned on the platter. Returns (rig TOML text, report dict); with
 /// `out`, the rig file is written.
 #[pyfunction]
-#[pyo3(signature = (captures, *, board=(9, 6), square=15.0, out=None, rig=None, projector=None, corner_height=None, fix_aspect_ratio=false, fix_principal_point=false, zero_tangential=false, fix_k3=false, force=false))]
+#[pyo3(signature = (captures, *, board=(9, 6), square=15.0, out=None, rig=None, projector=None, corner_height=None, fix_aspect_ratio=false, fix_principal_point=false, zero_tangential=false, fix_k3=false, lens_model="auto".to_string(), force=false))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate_rig<'py>(
     py: Python<'py>,
@@ -136,6 +151,7 @@ fn calibrate_rig<'py>(
     fix_principal_point: bool,
     zero_tangential: bool,
     fix_k3: bool,
+    lens_model: String,
     force: bool,
 ) -> PyResult<(String, Bound<'py, PyAny>)> {
     let o = Options {
@@ -145,6 +161,7 @@ fn calibrate_rig<'py>(
         out,
         projector,
         lens: lens(fix_aspect_ratio, fix_principal_point, zero_tangential, fix_k3),
+        lens_model,
         corner_height,
         force,
     };

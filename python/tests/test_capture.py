@@ -119,6 +119,10 @@ def test_calibrate_camera_equals_the_cli_and_finds_the_true_lens(tmp_path):
     assert report["camera"]["rms_px"] < 0.5
     with pytest.raises(ValueError, match="square must be a positive length"):
         scanrig.calibrate_camera(caps, square=0)
+    # The lens model the views support is reported (issue 39), and a model no one has is refused.
+    assert report["camera"]["model"]["estimated"][:2] == ["k1", "k2"]
+    with pytest.raises(ValueError, match="lens_model"):
+        scanrig.calibrate_camera(caps, square=11, lens_model="fancy")
 
 
 def test_calibrate_rig_equals_the_cli_and_finds_the_true_projector(tmp_path):

@@ -11,7 +11,7 @@ use crate::Error;
 use crate::config::SimConfig;
 use crate::geometry::{pixel_rays, view_geometry};
 use crate::scan::{ScanOptions, ScanReport, fresh_manifest, lights_for, program, write_view};
-use crate::scene::{Albedo, Mount, Part, PartKind, Scene};
+use crate::scene::{Albedo, Markers, Mount, Part, PartKind, Scene};
 use crate::surface::Rectangle;
 use rig::Method;
 use rig::math::{Isometry3, Point3, Real, Translation3, UnitQuaternion, Vector3};
@@ -29,9 +29,34 @@ pub struct Board {
     pub rows: u32,
     /// Square size (mm).
     pub square_mm: Real,
+    /// ArUco markers in its light squares: a ChArUco board (`cols + 1` × `rows + 1` squares).
+    pub markers: Option<Markers>,
 }
 
 impl Board {
+    /// A plain chessboard of `cols × rows` inner corners.
+    pub fn chessboard(cols: u32, rows: u32, square_mm: Real) -> Board {
+        Board { cols, rows, square_mm, markers: None }
+    }
+
+    /// A ChArUco board of `squares_x × squares_y` squares with `marker_mm` markers from a
+    /// dictionary of `bits × bits` markers (`codes` as [`Markers::codes`]).
+    pub fn charuco(
+        squares_x: u32,
+        squares_y: u32,
+        square_mm: Real,
+        marker_mm: Real,
+        bits: usize,
+        codes: &'static [u64],
+    ) -> Board {
+        Board {
+            cols: squares_x - 1,
+            rows: squares_y - 1,
+            square_mm,
+            markers: Some(Markers { size_mm: marker_mm, bits, codes }),
+        }
+    }
+
     /// The inner corners in the board frame, row-major.
     pub fn corners(&self) -> Vec<Point3> {
         (0..self.rows)
@@ -66,6 +91,7 @@ impl Board {
                 origin: (-c.x, -c.y),
                 dark: 0.05,
                 light: 0.85,
+                markers: self.markers,
             },
         }
     }
@@ -79,17 +105,49 @@ pub struct BoardPoses {
     pub held: Vec<Isometry3>,
     /// Turntable angles (degrees) of the board standing on the platter, facing the camera at 0°.
     pub sweep: Vec<Real>,
+    /// A card held over part of the board in the held views, by view (missing or `None`: none).
+    pub covers: Vec<Option<Cover>>,
+}
+
+/// A plain grey card held just in front of a board, over part of it — a hand or a clamp — so the
+/// corners under it are not seen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Cover {
+    /// Its corner nearest the board's origin, in squares of the board frame (corner (i, j) is at
+    /// (i, j)).
+    pub from: (Real, Real),
+    /// The opposite corner, in squares.
+    pub to: (Real, Real),
+}
+
+impl Cover {
+    /// The card as a scene part over `board` at `pose` (camera from board), 3 mm in front of it.
+    fn part(&self, board: &Board, pose: Isometry3) -> Part {
+        let s = board.square_mm;
+        let (x0, x1) = (self.from.0.min(self.to.0) * s, self.from.0.max(self.to.0) * s);
+        let (y0, y1) = (self.from.1.min(self.to.1) * s, self.from.1.max(self.to.1) * s);
+        // The board frame's +z (x × y, with y down the columns) points away from a camera that reads
+        // the board the right way round: the card is at −z.
+        let centre = Vector3::new((x0 + x1) / 2.0, (y0 + y1) / 2.0, -3.0);
+        Part {
+            kind: PartKind::Other,
+            surface: Box::new(Rectangle { half_width: (x1 - x0) / 2.0, half_height: (y1 - y0) / 2.0 }),
+            pose: pose * Translation3::from(centre),
+            mount: Mount::Fixed,
+            albedo: Albedo::Constant(0.4),
+        }
+    }
 }
 
 impl BoardPoses {
     /// Only held poses.
     pub fn held(poses: Vec<Isometry3>) -> Self {
-        BoardPoses { held: poses, sweep: Vec::new() }
+        BoardPoses { held: poses, sweep: Vec::new(), covers: Vec::new() }
     }
 
     /// Only a sweep on the turntable.
     pub fn sweep(angles_deg: Vec<Real>) -> Self {
-        BoardPoses { held: Vec::new(), sweep: angles_deg }
+        BoardPoses { held: Vec::new(), sweep: angles_deg, covers: Vec::new() }
     }
 }
 
@@ -176,6 +234,9 @@ pub fn simulate_board(
         let camera_from_board = match fixed {
             Some(p) => {
                 scene.parts.push(board.part(*p, Mount::Fixed));
+                if let Some(Some(cover)) = poses.covers.get(v) {
+                    scene.parts.push(cover.part(board, *p));
+                }
                 *p
             }
             None => {

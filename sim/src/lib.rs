@@ -44,7 +44,7 @@ pub mod scene;
 pub mod surface;
 pub mod truth;
 
-pub use board::{Board, BoardPoses, simulate_board};
+pub use board::{Board, BoardPoses, Cover, simulate_board};
 pub use config::SimConfig;
 pub use geometry::{ViewGeometry, pixel_rays, view_geometry};
 pub use object::{
@@ -52,7 +52,7 @@ pub use object::{
 };
 pub use render::render_frame;
 pub use scan::{ScanOptions, ScanReport, simulate_scan};
-pub use scene::{Albedo, Mount, Part, PartKind, Scene};
+pub use scene::{Albedo, Markers, Mount, Part, PartKind, Scene};
 pub use surface::{Disc, MeshSurface, Rectangle, Sphere, Surface};
 
 /// What can go wrong in a simulation.

@@ -58,7 +58,42 @@ pub enum Albedo {
         dark: Real,
         /// Albedo of light squares and the margin.
         light: Real,
+        /// ArUco markers in the light squares (a ChArUco board), or none.
+        markers: Option<Markers>,
     },
+}
+
+/// The ArUco markers of a ChArUco board, as OpenCV lays them out: one centred in each light square
+/// (the square diagonally outside the first inner corner is dark), numbered row by row over the
+/// light squares from the board's top-left.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Markers {
+    /// A marker's side (mm), its black border included.
+    pub size_mm: Real,
+    /// Data bits along a side (4 for a 4×4 dictionary); a one-bit black border surrounds them.
+    pub bits: usize,
+    /// Each marker's bits, row-major from its top-left, black = 1 (the first bit the lowest).
+    pub codes: &'static [u64],
+}
+
+impl Markers {
+    /// Whether the marker in light square (i, j) of a board `squares_x` squares across is black at
+    /// (u, v) ∈ [0, 1)² of that square; `None` outside the marker.
+    fn black(&self, square_mm: Real, squares_x: i64, (i, j): (i64, i64), (u, v): (Real, Real)) -> Option<bool> {
+        let id = ((j * squares_x + i) / 2) as usize;
+        let code = *self.codes.get(id)?;
+        let m = self.size_mm / square_mm;
+        let (mu, mv) = ((u - (1.0 - m) / 2.0) / m, (v - (1.0 - m) / 2.0) / m);
+        if !(0.0..1.0).contains(&mu) || !(0.0..1.0).contains(&mv) {
+            return None;
+        }
+        let cells = self.bits + 2;
+        let (cu, cv) = ((mu * cells as Real) as usize, (mv * cells as Real) as usize);
+        if cu == 0 || cv == 0 || cu == cells - 1 || cv == cells - 1 {
+            return Some(true);
+        }
+        Some((code >> ((cv - 1) * self.bits + cu - 1)) & 1 == 1)
+    }
 }
 
 /// ∫₀ˣ of the square wave that is 1 on the cells `[2k, 2k + 1)` (the even ones) and 0 between.
@@ -87,7 +122,7 @@ impl Albedo {
     /// by a tenth of a pixel; the box filter of a checker is exact and cheap (it is separable).
     pub fn box_filtered(&self, uv: (u32, Real, Real), half_u: Real, half_v: Real) -> Real {
         match self {
-            Albedo::Checker { square_mm, cols, rows, origin, dark, light } if half_u > 0.0 && half_v > 0.0 => {
+            Albedo::Checker { square_mm, cols, rows, origin, dark, light, markers } if half_u > 0.0 && half_v > 0.0 => {
                 // Square units, shifted so square (i, j) spans [i, i + 1) × [j, j + 1), i, j from 0.
                 let (x, y) = ((uv.1 - origin.0) / square_mm + 1.0, (uv.2 - origin.1) / square_mm + 1.0);
                 let (hx, hy) = (half_u / square_mm, half_v / square_mm);
@@ -95,7 +130,24 @@ impl Albedo {
                 let (ey, oy) = cell_shares(y - hy, y + hy, 0.0, *rows as Real + 1.0);
                 // Dark where i + j is even: both even or both odd.
                 let dark_share = ex * ey + ox * oy;
-                light + (dark - light) * dark_share
+                let checker = light + (dark - light) * dark_share;
+                let Some(m) = markers else { return checker };
+                // The markers' share of the box by 4 × 4 samples; the checker's stays exact.
+                let mut marker_dark = 0.0;
+                for a in 0..4 {
+                    for b in 0..4 {
+                        let (sx, sy) = (x - hx + (a as Real + 0.5) * hx / 2.0, y - hy + (b as Real + 0.5) * hy / 2.0);
+                        let (i, j) = (sx.floor() as i64, sy.floor() as i64);
+                        let inside = i >= 0 && j >= 0 && i <= *cols as i64 && j <= *rows as i64;
+                        if inside && (i + j) % 2 == 1 {
+                            let square = (sx - i as Real, sy - j as Real);
+                            if m.black(*square_mm, *cols as i64 + 1, (i, j), square) == Some(true) {
+                                marker_dark += 1.0 / 16.0;
+                            }
+                        }
+                    }
+                }
+                checker + (dark - light) * marker_dark
             }
             _ => self.at(uv),
         }
@@ -109,12 +161,14 @@ impl Albedo {
                 let (u, v) = (uv.1, uv.2);
                 (1.0 - u - v) * values[f[0] as usize] + u * values[f[1] as usize] + v * values[f[2] as usize]
             }
-            Albedo::Checker { square_mm, cols, rows, origin, dark, light } => {
+            Albedo::Checker { square_mm, cols, rows, origin, dark, light, markers } => {
                 let (x, y) = ((uv.1 - origin.0) / square_mm, (uv.2 - origin.1) / square_mm);
                 // Squares span x ∈ [−1, cols] and y ∈ [−1, rows] in square units; the rest is margin.
                 let inside = x >= -1.0 && y >= -1.0 && x < *cols as Real && y < *rows as Real;
                 let (i, j) = ((x + 1.0).floor() as i64, (y + 1.0).floor() as i64);
-                if inside && (i + j) % 2 == 0 { *dark } else { *light }
+                let square = (x + 1.0 - i as Real, y + 1.0 - j as Real);
+                let marked = || markers.and_then(|m| m.black(*square_mm, *cols as i64 + 1, (i, j), square));
+                if inside && ((i + j) % 2 == 0 || marked() == Some(true)) { *dark } else { *light }
             }
         }
     }
@@ -279,7 +333,7 @@ mod tests {
     use super::*;
 
     fn board() -> Albedo {
-        Albedo::Checker { square_mm: 10.0, cols: 3, rows: 2, origin: (0.0, 0.0), dark: 0.1, light: 0.9 }
+        Albedo::Checker { square_mm: 10.0, cols: 3, rows: 2, origin: (0.0, 0.0), dark: 0.1, light: 0.9, markers: None }
     }
 
     #[test]

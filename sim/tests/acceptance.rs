@@ -305,7 +305,7 @@ fn brightest_pixel_of_each_row_sits_on_the_truth_laser_line() {
 fn board_truth_corners_sit_where_the_lit_frame_changes_colour() {
     let mut cfg = noiseless("sim-laser.toml", 640, 480);
     cfg.scene.platter_radius_mm = 0.0;
-    let board = sim::Board { cols: 9, rows: 6, square_mm: 15.0 };
+    let board = sim::Board { cols: 9, rows: 6, square_mm: 15.0, markers: None };
     let poses = sim::board::default_fixed_poses(&board, 320.0, 5);
     let out = tmp("board");
     let opts = ScanOptions { method: Method::Board, seed: 4, truth: true };

@@ -660,6 +660,52 @@ fn calibrate_camera_recovers_the_simulated_camera_and_names_bad_folders() {
     assert!(!o.status.success() && stderr(&o).contains("b.png") && stderr(&o).contains("a.png"), "{}", stderr(&o));
 }
 
+/// Issue 39: four board poses, as a user with few of them has, calibrate without an option; the
+/// report says which lens terms they supported, and the lens is measured against the simulator's
+/// across the whole image, where the terms the poses cannot pin down do their harm.
+#[test]
+fn few_poses_calibrate_with_the_lens_model_they_support() {
+    let d = Dir::new();
+    let caps = d.path("caps");
+    let o = sim_board(&caps, &["--poses", "4", "--resolution", "640x480"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let truth = rig::Rig::read(&caps.join("rig.toml")).unwrap().camera;
+    // The farthest any pixel of the image lands from where the true lens puts its ray (px).
+    let worst = |cam: &rig::PinholeCamera| -> f64 {
+        let mut worst: f64 = 0.0;
+        for (x, y) in (0..=8).flat_map(|i| (0..=6).map(move |j| (i as f64 * 79.875, j as f64 * 79.833))) {
+            let px = rig::math::Point2::new(x, y);
+            let n = cam.pixel_to_normalized(px).unwrap();
+            let back = truth.project(&rig::math::Point3::new(n.x, n.y, 1.0)).unwrap();
+            worst = worst.max((back - px).norm());
+        }
+        worst
+    };
+    let mut worsts = Vec::new();
+    for model in ["auto", "full"] {
+        let out = d.path(&format!("{model}.toml"));
+        let o = scanrig(&[&"calibrate", &"camera", &caps, &"-o", &out, &"--square", &"11", &"--lens-model", &model]);
+        assert!(o.status.success(), "{model}: {}", stderr(&o));
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.path(&format!("{model}.report.json"))).unwrap()).unwrap();
+        let estimated = &report["camera"]["model"]["estimated"];
+        let cam = rig::Rig::read(&out).unwrap().camera;
+        assert!((cam.fx / truth.fx - 1.0).abs() < 0.005, "{model}: fx {} vs {}", cam.fx, truth.fx);
+        worsts.push(worst(&cam));
+        if model == "auto" {
+            assert_eq!(estimated, &serde_json::json!(["k1", "k2"]), "{report}");
+            assert!(stdout(&o).contains("k3: held at zero: 4 views"), "{}", stdout(&o));
+            // What to capture next is said.
+            assert!(!report["camera"]["coverage"]["advice"].as_str().unwrap().is_empty(), "{report}");
+        } else {
+            assert_eq!(estimated, &serde_json::json!(["k1", "k2", "p1", "p2", "k3"]), "{report}");
+        }
+    }
+    eprintln!("4 poses: worst pixel off the true lens {:.3} px (auto) against {:.3} px (full)", worsts[0], worsts[1]);
+    assert!(worsts[0] <= worsts[1] + 0.05, "{worsts:?}");
+    assert!(worsts[0] < 1.0, "{worsts:?}");
+}
+
 #[test]
 fn calibrate_all_on_a_laser_rig_gives_its_planes_and_axis_and_names_what_is_missing() {
     let d = Dir::new();

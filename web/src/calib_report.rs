@@ -58,12 +58,13 @@ pub fn build(report: &CalibReport, name: String, dir: &Path, read_image: &dyn Fn
     let mut rows: Vec<(&str, String)> = vec![(
         "board",
         format!(
-            "{}×{} inner corners, {} mm squares; found in {} of {} images",
+            "{}×{} inner corners, {} mm squares; found in {} of {} images{}",
             board.cols,
             board.rows,
             num(board.square_mm),
             found.found,
-            found.of
+            found.of,
+            if found.partial > 0 { format!(" ({} of them in part)", found.partial) } else { String::new() }
         ),
     )];
     if let Some(cam) = &report.camera {
@@ -81,6 +82,17 @@ pub fn build(report: &CalibReport, name: String, dir: &Path, read_image: &dyn Fn
                 cam.rms_px
             ),
         ));
+        let mut model = format!("estimated {}", cam.model.estimated.join(" "));
+        for held in &cam.model.held {
+            model.push_str(&format!("; {}", esc(held)));
+        }
+        rows.push(("lens model", model));
+        if !cam.coverage.advice.is_empty() {
+            rows.push((
+                "next captures",
+                format!("corners in {:.0} % of the image; {}", 100.0 * cam.coverage.covered, esc(&cam.coverage.advice)),
+            ));
+        }
     }
     if let Some(proj) = &report.projector {
         rows.push((

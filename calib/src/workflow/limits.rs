@@ -81,6 +81,7 @@ mod tests {
             board: BoardSpec { cols: 9, rows: 6, square_mm: 11.0 },
             orientation: Default::default(),
             lens: Default::default(),
+            lens_model: Default::default(),
             corner_height_mm: None,
             projector_size: None,
         }

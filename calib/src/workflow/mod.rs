@@ -12,7 +12,7 @@ mod steps;
 pub use captures::{Orientation, Position, load};
 pub use report::{CALIB_REPORT_SCHEMA_VERSION, CalibReport};
 
-use crate::{CalibError, CameraOptions, Gray, find_corners};
+use crate::{CalibError, CameraOptions, Gray, LensModel, Placement, find_board};
 use report::{BoardFound, BoardReport, NotFound, Skipped};
 use rig::math::{Point3, Real};
 use rig::{Laser, PinholeCamera, Projector, Rig};
@@ -183,6 +183,9 @@ pub struct RigCalibParams {
     pub orientation: Orientation,
     /// Which lens terms the camera and projector fits may move.
     pub lens: CameraOptions,
+    /// Whether the camera's distortion terms follow from the views (`lens_model`'s rule) or are all
+    /// estimated that `lens` does not fix.
+    pub lens_model: LensModel,
     /// How high the board's lowest inner corners stand above the platter (mm); `None`: two squares.
     pub corner_height_mm: Option<Real>,
     /// The projector's resolution; `None`: the base rig's projector.
@@ -241,8 +244,8 @@ pub fn calibrate_rig(
             }
             _ => {}
         }
-        match find_corners(&Gray::from_image(&img), board.cols, board.rows) {
-            Ok(corners) => found.push(Found { position: p, corners }),
+        match find_board(&Gray::from_image(&img), board.cols, board.rows) {
+            Ok(b) => found.push(Found { position: p, ids: b.ids, corners: b.pixels, placement: b.placement }),
             Err(e) => missed.push((p.lit.clone(), e.to_string())),
         }
     }
@@ -261,8 +264,8 @@ pub fn calibrate_rig(
     let wants = |s: Step| params.target == Target::All || params.target == Target::Only(s);
     let mut report = CalibReport { schema_version: CALIB_REPORT_SCHEMA_VERSION, ..Default::default() };
     let camera = if wants(Step::Camera) {
-        let (camera, r) =
-            steps::camera(&found, &board, (width, height), params.lens).map_err(|e| with_missed(e, &missed))?;
+        let (camera, r) = steps::camera(&found, &board, (width, height), params.lens, params.lens_model)
+            .map_err(|e| with_missed(e, &missed))?;
         report.camera = Some(r);
         camera
     } else {
@@ -284,7 +287,10 @@ pub fn calibrate_rig(
     // The camera was calibrated on the turned frames: processing must turn them the same way.
     rig.image = params.orientation.0;
 
-    let on_turntable = found.iter().filter(|f| f.position.angle_deg.is_some()).count();
+    // The axis relates views to one another: whole boards only.
+    let whole = found.iter().filter(|f| f.placement == Placement::Whole).count();
+    let on_turntable =
+        found.iter().filter(|f| f.placement == Placement::Whole && f.position.angle_deg.is_some()).count();
     let captured_on_turntable = positions.iter().filter(|p| p.angle_deg.is_some()).count();
     let mut skipped = Vec::new();
     if params.target == Target::All && on_turntable < 3 && captured_on_turntable > 0 {
@@ -292,7 +298,7 @@ pub fn calibrate_rig(
         skipped.push(Skipped {
             step: "turntable".into(),
             why: format!(
-                "the board was found in {on_turntable} of the {captured_on_turntable} turntable views; the axis needs 3"
+                "the whole board was found in {on_turntable} of the {captured_on_turntable} turntable views; the axis needs 3"
             ),
         });
     }
@@ -305,7 +311,7 @@ pub fn calibrate_rig(
         report.turntable = Some(r);
     } else if params.target == Target::All
         && captured_on_turntable == 0
-        && found.len() >= 3
+        && whole >= 3
         && base.is_some_and(|r| r.turntable.is_some())
     {
         // A turntable scanner's image folder (FabScanPi's sweep): no angles were recorded, but the
@@ -359,7 +365,8 @@ pub fn calibrate_rig(
         report.projector = Some(r);
     }
     report.not_found = missed.iter().map(|(f, why)| NotFound { image: f.clone(), why: why.clone() }).collect();
-    report.board_found = BoardFound { found: found.len(), of: positions.len() };
+    let partial = found.iter().filter(|f| f.placement != Placement::Whole).count();
+    report.board_found = BoardFound { found: found.len(), of: positions.len(), partial };
     report.board = BoardReport { cols, rows, square_mm };
     report.skipped = skipped;
     report.warnings = plausible::findings(&rig, &report);

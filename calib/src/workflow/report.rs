@@ -83,6 +83,36 @@ pub struct CameraReport {
     /// Levenberg–Marquardt iterations.
     #[serde(default)]
     pub iterations: usize,
+    /// The lens terms estimated and those held at zero, with why (`crate::lens_model`'s rule).
+    #[serde(default)]
+    pub model: crate::lens_model::ModelChoice,
+    /// Where the views' corners fell, and what they leave uncovered.
+    #[serde(default)]
+    pub coverage: CoverageReport,
+}
+
+/// Where the board's corners fell over the camera step's views: what another capture should add.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CoverageReport {
+    /// Share of the image's cells (`lens_model::CELLS_X` × `CELLS_Y`) holding a corner.
+    #[serde(deserialize_with = "figure")]
+    pub covered: Real,
+    /// The farthest corner from the image centre, as a share of the centre-to-corner distance.
+    #[serde(deserialize_with = "figure")]
+    pub reach: Real,
+    /// Regions of the image no corner fell in ("top left" …).
+    #[serde(default)]
+    pub missing_regions: Vec<String>,
+    /// The board's tilts towards the camera (degrees about the image's x and y axes), each view.
+    #[serde(default)]
+    pub tilts_deg: Vec<[Real; 2]>,
+    /// Tilts no view had ("tilted left by 20° or more" …): Zhang's method needs the board turned
+    /// both ways about both axes for a well-conditioned focal length.
+    #[serde(default)]
+    pub missing_tilts: Vec<String>,
+    /// What to capture next, in a sentence; empty when nothing is missing.
+    #[serde(default)]
+    pub advice: String,
 }
 
 /// A lens (camera or projector): image size, pinhole and distortion.
@@ -134,6 +164,14 @@ pub struct BoardView {
     /// The corners found (px), row by row of the board.
     #[serde(default)]
     pub corners: Vec<[Real; 2]>,
+    /// Each found corner's number on the board (row-major, as `corners`); all of them for a whole
+    /// board.
+    #[serde(default)]
+    pub corner_ids: Vec<usize>,
+    /// Whether the whole board was seen, or a part placed by its margin, or a part whose place on
+    /// the board is unknown (used for the lens only).
+    #[serde(default)]
+    pub placement: crate::Placement,
     /// Each corner's residual, reprojected − found (px; NaN where the corner does not project).
     #[serde(default, deserialize_with = "figure_pairs")]
     pub residuals_px: Vec<[Real; 2]>,
@@ -244,6 +282,10 @@ pub struct BoardFound {
     pub found: usize,
     /// Images looked at.
     pub of: usize,
+    /// Of those with the board, how many showed only part of it (placed on the board by its margin
+    /// or not: each view's `placement`).
+    #[serde(default)]
+    pub partial: usize,
 }
 
 /// The board: inner corners and square size.

@@ -2,13 +2,15 @@
 //! intrinsics, the turntable axis, laser planes and the projector.
 
 use super::captures::{Orientation, Position};
+use super::report::CoverageReport;
 use super::report::{BoardPose, BoardView, CameraReport, LaserReport, LensReport, ProjectorReport, TurntableReport};
 use super::{Step, WorkflowError as E};
 use crate::laser_plane::on_even_print;
+use crate::lens_model::{Coverage, LensModel, choose};
 use crate::turntable_axis::board_pose;
 use crate::{
-    BoardRegion, CameraOptions, LaserView, StereoView, SweepView, View, calibrate_camera, calibrate_projector,
-    fit_axis, fit_laser_plane, fit_sweep, projector_corners,
+    BoardRegion, CameraOptions, LaserView, Placement, StereoView, SweepView, View, calibrate_camera,
+    calibrate_projector, fit_axis, fit_laser_plane, fit_sweep, projector_corners,
 };
 use decode::laser_line::{LaserParams, detect_line_within};
 use decode::structured_light::{DecodeParams, decode_view};
@@ -16,10 +18,33 @@ use rig::math::{Isometry3, Point2, Point3, Real};
 use rig::{LaserPlane, PinholeCamera, TurntableAxis};
 use std::path::PathBuf;
 
-/// A position whose board was found: its index in the capture list and its corners.
+/// A position whose board was found, whole or in part: its corners' numbers on the board and
+/// their pixels.
 pub struct Found<'a> {
     pub position: &'a Position,
+    pub ids: Vec<usize>,
     pub corners: Vec<Point2>,
+    pub placement: Placement,
+}
+
+impl Found<'_> {
+    /// The found corners in the board frame.
+    fn object(&self, board: &Board) -> Vec<Point3> {
+        self.ids.iter().map(|&i| board.object[i]).collect()
+    }
+
+    /// The board's square in pixels: the median distance between corners next to each other in a row.
+    fn square_px(&self, cols: usize) -> Real {
+        let mut d: Vec<Real> = self
+            .ids
+            .windows(2)
+            .zip(self.corners.windows(2))
+            .filter(|(i, _)| i[1] == i[0] + 1 && i[1] % cols != 0)
+            .map(|(_, c)| (c[1] - c[0]).norm())
+            .collect();
+        d.sort_by(Real::total_cmp);
+        d.get(d.len() / 2).copied().unwrap_or(20.0)
+    }
 }
 
 /// The board: its corners in its own frame and its corner grid.
@@ -39,14 +64,18 @@ pub fn some_files<'a>(files: impl Iterator<Item = &'a PathBuf>) -> String {
     }
 }
 
+/// The camera's lens from every board found, whole or in part, with the distortion terms the views
+/// support (`lens_model`) unless `model` is `Full`.
 pub fn camera(
     found: &[Found],
     board: &Board,
     size: (u32, u32),
-    opts: CameraOptions,
+    user: CameraOptions,
+    model: LensModel,
 ) -> Result<(PinholeCamera, CameraReport), E> {
-    let views: Vec<View> =
-        found.iter().map(|f| View { object: board.object.clone(), image: f.corners.clone() }).collect();
+    let views: Vec<View> = found.iter().map(|f| View { object: f.object(board), image: f.corners.clone() }).collect();
+    let cov = Coverage::of(found.iter().map(|f| f.corners.as_slice()), size.0, size.1);
+    let (opts, model) = choose(model, user, &cov);
     let c = calibrate_camera(&views, size.0, size.1, opts).map_err(|source| E::Step {
         step: Step::Camera,
         source,
@@ -59,8 +88,54 @@ pub fn camera(
         views: views.map(|((f, r), pose)| board_view(f, *r, pose, board, &c.camera)).collect(),
         outlier_views: c.outlier_views.iter().map(|&v| found[v].position.lit.clone()).collect(),
         iterations: c.iterations,
+        model,
+        coverage: coverage_report(&cov, &c.poses),
     };
     Ok((c.camera, report))
+}
+
+/// The smallest tilt (degrees) that counts as a board turned about an image axis.
+const TILT_DEG: Real = 15.0;
+
+/// The coverage and tilts of the camera step's views, and what a next capture should add.
+fn coverage_report(cov: &Coverage, poses: &[Isometry3]) -> CoverageReport {
+    // The board's normal towards the camera: its z axis (out of the printed face), camera frame.
+    let tilts: Vec<[Real; 2]> = poses
+        .iter()
+        .map(|p| {
+            let n = p.rotation * rig::math::Vector3::z();
+            // Positive: the board's top (−y) farther away; its right side (+x) farther away.
+            [(-n.y).atan2(-n.z).to_degrees(), (-n.x).atan2(-n.z).to_degrees()]
+        })
+        .collect();
+    let seen = |axis: usize, sign: Real| tilts.iter().any(|t| sign * t[axis] >= TILT_DEG);
+    let mut missing_tilts = Vec::new();
+    for (axis, sign, what) in [
+        (0, 1.0, "top leaning away"),
+        (0, -1.0, "top leaning towards the camera"),
+        (1, 1.0, "right side turned away"),
+        (1, -1.0, "left side turned away"),
+    ] {
+        if !seen(axis, sign) {
+            missing_tilts.push(format!("{what} by {TILT_DEG:.0}° or more"));
+        }
+    }
+    let missing_regions = cov.missing();
+    let mut advice = Vec::new();
+    if !missing_regions.is_empty() {
+        advice.push(format!("hold the board so its corners reach the {} of the image", missing_regions.join(", ")));
+    }
+    if !missing_tilts.is_empty() {
+        advice.push(format!("add views with the board's {}", missing_tilts.join("; ")));
+    }
+    CoverageReport {
+        covered: cov.covered(),
+        reach: cov.reach,
+        missing_regions,
+        tilts_deg: tilts.iter().map(|t| t.map(|v| (v * 10.0).round() / 10.0)).collect(),
+        missing_tilts,
+        advice: advice.join("; "),
+    }
 }
 
 /// One board view of the camera step: its image, RMS, the corners found, each corner's
@@ -68,8 +143,8 @@ pub fn camera(
 /// calibration report to draw.
 fn board_view(f: &Found, rms: Real, pose: &Isometry3, board: &Board, camera: &PinholeCamera) -> BoardView {
     let round = |v: Real| (v * 1e4).round() / 1e4;
-    let residuals: Vec<[Real; 2]> = board
-        .object
+    let residuals: Vec<[Real; 2]> = f
+        .object(board)
         .iter()
         .zip(&f.corners)
         .map(|(o, c)| match camera.project(&(pose * o)) {
@@ -81,6 +156,8 @@ fn board_view(f: &Found, rms: Real, pose: &Isometry3, board: &Board, camera: &Pi
         image: f.position.lit.clone(),
         rms_px: rms,
         corners: f.corners.iter().map(|c| [round(c.x), round(c.y)]).collect(),
+        corner_ids: f.ids.clone(),
+        placement: f.placement,
         residuals_px: residuals,
         pose: BoardPose {
             rotation_vector: pose.rotation.scaled_axis().into(),
@@ -91,14 +168,16 @@ fn board_view(f: &Found, rms: Real, pose: &Isometry3, board: &Board, camera: &Pi
 
 /// The turntable axis: from the views with recorded angles adjusted as one sweep, or without angles
 /// (an image folder) from the corners' circles. Also returns the sweep's board poses by position
-/// (for the laser step).
+/// (for the laser step). Only whole boards are used: the axis relates views to one another, and a
+/// corner's circle needs that corner in every view.
 pub fn turntable(
     found: &[Found],
     board: &Board,
     camera: &PinholeCamera,
     corner_height_mm: Real,
 ) -> Result<(TurntableAxis, Vec<Option<Isometry3>>, TurntableReport), E> {
-    let swept: Vec<usize> = (0..found.len()).filter(|&k| found[k].position.angle_deg.is_some()).collect();
+    let whole: Vec<usize> = (0..found.len()).filter(|&k| found[k].placement == Placement::Whole).collect();
+    let swept: Vec<usize> = whole.iter().copied().filter(|&k| found[k].position.angle_deg.is_some()).collect();
     let names = || some_files(found.iter().map(|f| &f.position.lit));
     if swept.len() >= 3 {
         let views: Vec<SweepView> = swept
@@ -125,11 +204,11 @@ pub fn turntable(
         };
         return Ok((fit.axis, poses, report));
     }
-    if found.iter().any(|f| f.position.angle_deg.is_some()) || found.len() < 3 {
+    if found.iter().any(|f| f.position.angle_deg.is_some()) || whole.len() < 3 {
         return Err(E::TooFewTurntableViews { found: swept.len(), files: names() });
     }
     // An image folder: every view is taken to be on the turntable, angles unknown.
-    let corners: Vec<Vec<Point2>> = found.iter().map(|f| f.corners.clone()).collect();
+    let corners: Vec<Vec<Point2>> = whole.iter().map(|&k| found[k].corners.clone()).collect();
     let fit = fit_axis(camera, &board.object, &corners, corner_height_mm).map_err(|source| E::Step {
         step: Step::Turntable,
         source,
@@ -165,9 +244,14 @@ pub fn lasers(
         if f.position.lasers.is_empty() {
             continue;
         }
+        // A part of the board with no place on it gives the board's plane but not where its edges
+        // are, which bounds the search for the line.
+        if f.placement == Placement::Unplaced {
+            continue;
+        }
         let pose = match poses.get(k).copied().flatten() {
             Some(p) => p,
-            None => board_pose(camera, &board.object, &f.corners)
+            None => board_pose(camera, &f.object(board), &f.corners)
                 .ok_or_else(|| E::NoBoardPose { image: f.position.lit.clone() })?,
         };
         let lit = turn.read(&f.position.lit)?;
@@ -198,7 +282,14 @@ pub fn lasers(
                 off
             }
         };
-        let region = BoardRegion::new(&f.corners, board.cols, board.rows).expect("a full board's corners");
+        // The board's whole grid: as found, or where the pose puts the corners not seen.
+        let grid: Option<Vec<Point2>> = match f.placement {
+            Placement::Whole => Some(f.corners.clone()),
+            _ => board.object.iter().map(|o| camera.project(&(pose * o))).collect(),
+        };
+        let Some(region) = grid.and_then(|g| BoardRegion::new(&g, board.cols, board.rows)) else {
+            return Err(E::NoBoardPose { image: f.position.lit.clone() });
+        };
         for ((i, on), (_, path)) in images.iter().zip(&f.position.lasers) {
             let (peaks, _) = detect_line_within(on, &off, &LaserParams::default(), |x, y| {
                 region.contains(Point2::new(x as Real, y as Real))
@@ -250,7 +341,7 @@ pub fn projector(
         return Err(E::NoFrames { step: Step::Projector });
     }
     // A window a little under a square wide: the four squares around a corner, no farther.
-    let spacing = (with[0].corners[1] - with[0].corners[0]).norm();
+    let spacing = with[0].square_px(board.cols);
     let half = ((0.4 * spacing) as usize).clamp(4, 40);
     let mut views = Vec::new();
     for (k, f) in with.iter().enumerate() {
@@ -262,7 +353,7 @@ pub fn projector(
         let (map, _) = decode_view(&frames, size.0, size.1, &DecodeParams::default())
             .map_err(|source| E::Decode { image: f.position.lit.clone(), source: source.name_frames(&names) })?;
         views.push(StereoView {
-            object: board.object.clone(),
+            object: f.object(board),
             camera: f.corners.clone(),
             projector: projector_corners(&f.corners, &map, half),
         });

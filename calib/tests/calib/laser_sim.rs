@@ -10,7 +10,7 @@ use rig::{Manifest, Pattern};
 #[test]
 fn laser_lines_on_a_swept_board_give_the_laser_planes() {
     let cfg = sim::SimConfig::builtin("laser").unwrap();
-    let board = sim::Board { cols: 11, rows: 6, square_mm: 13.0 };
+    let board = sim::Board { cols: 11, rows: 6, square_mm: 13.0, markers: None };
     let angles: Vec<Real> = (-12..=12).map(|k| k as Real * 5.0).collect();
     let dir = fixtures::temp_dir("calib-laser-sim");
     let opts = sim::ScanOptions { method: rig::Method::Board, seed: 5, truth: false };

@@ -2,5 +2,6 @@
 
 mod fabscanpi;
 mod laser_sim;
+mod partial_boards;
 mod structured_light_sim;
 mod turntable_sim;

@@ -16,7 +16,7 @@ fn simulated_board_views_calibrate_camera_and_projector() {
     let cfg = sim::SimConfig::builtin("structured-light").unwrap();
     // 11 mm squares: the default poses drift the board toward the image's edges, and with 15 mm
     // squares half of them leave corners outside the frame.
-    let board = sim::Board { cols: 9, rows: 6, square_mm: 11.0 };
+    let board = sim::Board { cols: 9, rows: 6, square_mm: 11.0, markers: None };
     let distance = cfg.rig.turntable.map(|t| t.point.coords.norm()).unwrap_or(400.0);
     let poses = sim::board::default_fixed_poses(&board, distance, 15);
     let dir = fixtures::temp_dir("calib-camera-sim");

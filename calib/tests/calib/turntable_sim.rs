@@ -9,7 +9,7 @@ use rig::{Manifest, Pattern};
 fn a_board_swept_on_the_platter_gives_the_turntable_axis() {
     let cfg = sim::SimConfig::builtin("structured-light").unwrap();
     let truth = cfg.rig.turntable.expect("the structured-light rig has a turntable");
-    let board = sim::Board { cols: 9, rows: 6, square_mm: 11.0 };
+    let board = sim::Board { cols: 9, rows: 6, square_mm: 11.0, markers: None };
     let angles: Vec<Real> = (-6..=6).map(|k| k as Real * 10.0).collect();
     let dir = fixtures::temp_dir("calib-axis-sim");
     let opts = sim::ScanOptions { method: rig::Method::Board, seed: 3, truth: false };
