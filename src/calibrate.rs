@@ -40,7 +40,12 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
             CalibrateTarget::Turntable => Target::Only(Step::Turntable),
             CalibrateTarget::All | CalibrateTarget::Import => Target::All,
         },
-        board: BoardSpec { cols: args.board.0 as usize, rows: args.board.1 as usize, square_mm: args.square },
+        board: BoardSpec {
+            cols: args.board.cols as usize,
+            rows: args.board.rows as usize,
+            square_mm: args.board.charuco.map_or(args.square, |c| c.0),
+            markers: args.board.charuco.map(|c| c.1),
+        },
         orientation: orientation(args)?,
         lens: CameraOptions {
             fix_aspect_ratio: args.fix_aspect_ratio,

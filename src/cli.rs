@@ -35,8 +35,10 @@ mod tests {
         for bad in ["4294967295x4294967295", "32769x10", "0x5", "x", "-1x5", "1.5x2"] {
             assert!(parse_size(bad).is_err(), "{bad}");
         }
-        assert_eq!(parse_board("9x6"), Ok((9, 6)));
-        for bad in ["100000x100000", "1x6", "201x3"] {
+        assert_eq!(parse_board("9x6").map(|b| (b.cols, b.rows, b.charuco.is_none())), Ok((9, 6, true)));
+        let charuco = parse_board("charuco:11x9:square=10:marker=7:dict=4x4_50").unwrap();
+        assert_eq!((charuco.cols, charuco.rows, charuco.charuco.map(|c| c.0)), (10, 8, Some(10.0)));
+        for bad in ["100000x100000", "1x6", "201x3", "charuco:11x9:square=10:marker=7:dict=4x4_5"] {
             assert!(parse_board(bad).is_err(), "{bad}");
         }
         assert_eq!(parse_sweep("-60:60:10").unwrap().0.len(), 13);
@@ -373,9 +375,10 @@ pub struct SimArgs {
     /// Output scan folder; a half-finished scan of the same settings there is resumed.
     #[arg(long, short, default_value = "scan-sim")]
     pub out: PathBuf,
-    /// Calibration captures of a chessboard with COLSxROWS inner corners instead of a scan.
+    /// Calibration captures of a chessboard with COLSxROWS inner corners instead of a scan, or of
+    /// a ChArUco board: charuco:SQUARESxSQUARES:square=MM:marker=MM:dict=4x4_50.
     #[arg(long, value_parser = parse_board)]
-    pub board: Option<(u32, u32)>,
+    pub board: Option<BoardArg>,
     /// The chessboard's square size, mm.
     #[arg(long, default_value_t = 15.0)]
     pub square: f64,
@@ -453,8 +456,24 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
 
 /// A chessboard's inner corners COLSxROWS: at least 2×2 to fix a pose, at most 200 a side (a board
 /// finer than that spans fewer than 20 pixels a square on any camera's image).
-fn parse_board(s: &str) -> Result<(u32, u32), String> {
-    parse_pair(s, 2, calib::workflow::limits::MAX_BOARD_CORNERS as u32, "inner corners")
+/// A board on the command line: a chessboard's inner corners, or a ChArUco board's description.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BoardArg {
+    /// Inner corners across.
+    pub cols: u32,
+    /// Inner corners down.
+    pub rows: u32,
+    /// A ChArUco board's square (mm) and markers.
+    pub charuco: Option<(f64, calib::charuco::CharucoMarkers)>,
+}
+
+fn parse_board(s: &str) -> Result<BoardArg, String> {
+    if s.trim_start().starts_with("charuco") {
+        let (cols, rows, square, markers) = calib::charuco::parse(s)?;
+        return Ok(BoardArg { cols, rows, charuco: Some((square, markers)) });
+    }
+    let (cols, rows) = parse_pair(s, 2, calib::workflow::limits::MAX_BOARD_CORNERS as u32, "inner corners")?;
+    Ok(BoardArg { cols, rows, charuco: None })
 }
 
 fn parse_pair(s: &str, min: u32, max: u32, unit: &str) -> Result<(u32, u32), String> {
@@ -718,9 +737,11 @@ pub struct CalibrateArgs {
     /// The rig file to write; an existing one keeps everything but what is calibrated.
     #[arg(long, short)]
     pub out: PathBuf,
-    /// Inner corners of the chessboard, COLSxROWS.
+    /// Inner corners of the chessboard, COLSxROWS; or a ChArUco board,
+    /// charuco:SQUARESxSQUARES:square=MM:marker=MM:dict=4x4_50 (OpenCV's layout; its square= is
+    /// the square size, --square is not used).
     #[arg(long, value_parser = parse_board, default_value = "9x6")]
-    pub board: (u32, u32),
+    pub board: BoardArg,
     /// Square size, mm.
     #[arg(long, default_value_t = 15.0)]
     pub square: f64,

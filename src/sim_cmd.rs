@@ -61,8 +61,17 @@ pub fn run(args: &SimArgs) -> Result<()> {
         }
         _ => {}
     }
-    if let Some((cols, rows)) = args.board {
-        return run_board(args, &cfg, sim::Board { cols, rows, square_mm: args.square, markers: None });
+    if let Some(b) = args.board {
+        let board = match b.charuco {
+            None => sim::Board::chessboard(b.cols, b.rows, args.square),
+            Some((square_mm, m)) => {
+                let dict = calib::charuco::dictionary(m.dictionary).expect("a dictionary the parser checked");
+                let (bits, codes) = calib::charuco::marker_bits(&dict);
+                let markers = Some(sim::Markers { size_mm: m.marker_mm, bits, codes });
+                sim::Board { cols: b.cols, rows: b.rows, square_mm, markers }
+            }
+        };
+        return run_board(args, &cfg, board);
     }
     let size = args.world.size.unwrap_or(cfg.scene.object_size_mm);
     let offset = rig::Vector3::from(args.offset.unwrap_or([0.0; 3]));

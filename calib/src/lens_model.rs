@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 /// Image cells across, for coverage.
 pub const CELLS_X: usize = 6;
 /// Image cells down, for coverage.
-pub const CELLS_Y: usize = 6;
+pub const CELLS_Y: usize = 4;
 /// Views needed before p1, p2 are estimated.
 pub const TANGENTIAL_VIEWS: usize = 6;
 /// Share of the cells that must hold a corner before p1, p2 are estimated.
@@ -88,10 +88,11 @@ impl Coverage {
             1 => "centre",
             _ => "right",
         };
-        let row = |j: usize| match j * 3 / CELLS_Y {
+        // The first and last rows of cells are the image's top and bottom, the rows between its middle.
+        let row = |j: usize| match j {
             0 => "top",
-            1 => "middle",
-            _ => "bottom",
+            j if j + 1 == CELLS_Y => "bottom",
+            _ => "middle",
         };
         let mut out: Vec<String> = Vec::new();
         for (k, &c) in self.cells.iter().enumerate() {

@@ -14,6 +14,7 @@
 #![deny(missing_docs)]
 
 pub mod camera_calib;
+pub mod charuco;
 pub mod chessboard;
 pub mod gray;
 pub mod homography;
@@ -35,5 +36,5 @@ pub use lens_model::LensModel;
 pub use partial_board::{BoardCorners, Placement, find_board};
 pub use projector::{ProjectorCalibration, StereoView, calibrate_projector, projector_corners};
 pub use sweep::{SweepFit, SweepView, fit_sweep};
-pub use turntable_axis::{AxisFit, fit_axis};
+pub use turntable_axis::{AxisFit, fit_axis, fit_axis_seen};
 pub use workflow::{BoardSpec, CalibReport, RigCalibParams, Target, WorkflowError, calibrate_rig};

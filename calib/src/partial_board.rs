@@ -3,6 +3,11 @@
 //! [`crate::chessboard`] grows is kept when it is not the whole board, and its corners are given
 //! their numbers on the board where the image says which they are:
 //!
+//! - the grid is first re-based along the squares' sides: on an oblique board a corner's nearest
+//!   neighbours can lie along a diagonal, and the grid grown from them is a lattice whose cells are
+//!   not squares (the basis whose cells split cleanest into dark and light is kept);
+//! - a corner whose four squares do not all show the checker's colours (a cover's edge, a shadow
+//!   beside it) is dropped: its refinement would be pulled off the junction;
 //! - the squares' colours fix the numbering's parity (the square diagonally outside corner 0 is
 //!   dark, as for a whole board), and the grid's turn in the image fixes its handedness;
 //! - each side of the grid is looked past: one square beyond its last corners the board either goes
@@ -15,7 +20,9 @@
 //!   (no margin in view): the corners keep the first placement's numbers and are **unplaced** — right
 //!   up to a shift and a quarter turn on the board, which a step solving one pose per view (the lens,
 //!   the projector, a laser plane) does not see, and which the turntable's steps, relating views to
-//!   one another, must not use.
+//!   one another, must not use. A board of an even count of squares both ways looks the same
+//!   turned half round: two placements a half turn apart count as one, numbered as a whole board
+//!   of that kind is (corner 0 the nearer the image's top-left).
 
 use crate::NotFound;
 use crate::chessboard::{Search, refine_all, search};

@@ -7,7 +7,7 @@
 
 use crate::camera_calib::CalibError;
 use crate::least_squares;
-use crate::turntable_axis::{board_pose, fit_axis, lowest_corner, pose_from};
+use crate::turntable_axis::{board_pose, fit_axis_seen, lowest_corner, pose_from, seen};
 use nalgebra::DVector;
 use rig::math::{Isometry3, Point2, Point3, Real, Rotation3, Translation3, UnitVector3, Vector3};
 use rig::{PinholeCamera, TurntableAxis};
@@ -18,8 +18,17 @@ use serde::Serialize;
 pub struct SweepView {
     /// Turntable angle (degrees, counter-clockwise seen from above, as the scan folder records it).
     pub angle_deg: Real,
-    /// The board's inner corners (row-major).
+    /// The board's inner corners (row-major): all of them, or those numbered `ids`.
     pub corners: Vec<Point2>,
+    /// The corners' numbers on the board, for a board partly seen; empty: every corner, in order.
+    pub ids: Vec<usize>,
+}
+
+impl SweepView {
+    /// The numbers of this view's corners.
+    fn numbers(&self, object: &[Point3]) -> Vec<usize> {
+        if self.ids.is_empty() { (0..object.len()).collect() } else { self.ids.clone() }
+    }
 }
 
 /// What [`fit_sweep`] found.
@@ -48,16 +57,23 @@ const ANGLE_TOLERANCE_DEG: Real = 3.0;
 
 /// Fits the sweep (see the module notes). `object` are the board corners (board frame, mm);
 /// `corner_height_mm` is how far the lowest inner corners stand above the platter (as for
-/// [`fit_axis`]), which fixes the axis point's height.
+/// [`crate::fit_axis`]), which fixes the axis point's height.
 pub fn fit_sweep(
     camera: &PinholeCamera,
     object: &[Point3],
     views: &[SweepView],
     corner_height_mm: Real,
 ) -> Result<SweepFit, CalibError> {
-    let corners: Vec<Vec<Point2>> = views.iter().map(|v| v.corners.clone()).collect();
-    let start = fit_axis(camera, object, &corners, corner_height_mm)?;
-    let poses: Vec<Option<Isometry3>> = corners.iter().map(|c| board_pose(camera, object, c)).collect();
+    let ids: Vec<Vec<usize>> = views.iter().map(|v| v.numbers(object)).collect();
+    let objects: Vec<Vec<Point3>> = ids.iter().map(|i| seen(object, i)).collect();
+    if views.iter().zip(&objects).any(|(v, o)| v.corners.len() != o.len()) {
+        return Err(CalibError::Degenerate("a view's corners and their numbers differ in count".into()));
+    }
+    let seen_views: Vec<(&[usize], &[Point2])> =
+        ids.iter().zip(views).map(|(i, v)| (i.as_slice(), v.corners.as_slice())).collect();
+    let start = fit_axis_seen(camera, object, &seen_views, corner_height_mm)?;
+    let poses: Vec<Option<Isometry3>> =
+        objects.iter().zip(views).map(|(o, v)| board_pose(camera, o, &v.corners)).collect();
     let (first, p0) = poses.iter().enumerate().find_map(|(k, p)| p.map(|p| (k, p))).expect("fit_axis found poses");
     // The recorded angles must turn the board as its poses do, in size and sense.
     let axis0 = start.axis;
@@ -97,7 +113,7 @@ pub fn fit_sweep(
         used.iter()
             .flat_map(|&k| {
                 let pose = axis.camera_from_object(views[k].angle_deg) * b;
-                object.iter().zip(&views[k].corners).flat_map(move |(o, c)| {
+                objects[k].iter().zip(&views[k].corners).flat_map(move |(o, c)| {
                     let p = camera.project(&(pose * o)).unwrap_or(Point2::new(1e6, 1e6));
                     [p.x - c.x, p.y - c.y]
                 })
@@ -117,10 +133,19 @@ pub fn fit_sweep(
         - corner_height_mm;
     axis.point += axis.direction.into_inner() * h;
     b = Translation3::new(0.0, 0.0, -h) * b;
-    let n = object.len();
-    let view_rms_px: Vec<Real> =
-        m.residuals.chunks(2 * n).map(|r| (r.iter().map(|v| v * v).sum::<Real>() / n as Real).sqrt()).collect();
-    let rms_px = (m.residuals.iter().map(|v| v * v).sum::<Real>() / (n * used.len()) as Real).sqrt();
+    // Each view's share of the residuals: two per corner it saw.
+    let mut at = 0;
+    let view_rms_px: Vec<Real> = used
+        .iter()
+        .map(|&k| {
+            let n = objects[k].len();
+            let r = &m.residuals[at..at + 2 * n];
+            at += 2 * n;
+            (r.iter().map(|v| v * v).sum::<Real>() / n.max(1) as Real).sqrt()
+        })
+        .collect();
+    let corners_used: usize = used.iter().map(|&k| objects[k].len()).sum();
+    let rms_px = (m.residuals.iter().map(|v| v * v).sum::<Real>() / corners_used.max(1) as Real).sqrt();
     let poses = views.iter().map(|v| axis.camera_from_object(v.angle_deg) * b).collect();
     Ok(SweepFit { axis, object_from_board: b, poses, rms_px, view_rms_px, iterations: m.iterations })
 }

@@ -70,7 +70,21 @@ pub fn fit_axis(
     views: &[Vec<Point2>],
     corner_height_mm: Real,
 ) -> Result<AxisFit, CalibError> {
-    let poses: Vec<Isometry3> = views.iter().filter_map(|c| board_pose(camera, object, c)).collect();
+    let all: Vec<usize> = (0..object.len()).collect();
+    let views: Vec<(&[usize], &[Point2])> = views.iter().map(|c| (all.as_slice(), c.as_slice())).collect();
+    fit_axis_seen(camera, object, &views, corner_height_mm)
+}
+
+/// [`fit_axis`] from the corners each view saw: `(numbers, pixels)` per view, the numbers indexing
+/// `object` (a board partly seen, its corners identified). Each view's pose comes from its own
+/// corners; every corner of the board then turns on its circle, seen or not.
+pub fn fit_axis_seen(
+    camera: &PinholeCamera,
+    object: &[Point3],
+    views: &[(&[usize], &[Point2])],
+    corner_height_mm: Real,
+) -> Result<AxisFit, CalibError> {
+    let poses: Vec<Isometry3> = views.iter().filter_map(|(ids, c)| board_pose(camera, &seen(object, ids), c)).collect();
     if poses.len() < 3 {
         return Err(CalibError::TooFewViews(format!("{} views with a board pose; at least 3 are needed", poses.len())));
     }
@@ -128,6 +142,11 @@ pub fn fit_axis(
         circle_rms_mm: (sq / n.max(1) as Real).sqrt(),
         views: poses.len(),
     })
+}
+
+/// The corners of `object` numbered `ids`.
+pub(crate) fn seen(object: &[Point3], ids: &[usize]) -> Vec<Point3> {
+    ids.iter().filter_map(|&i| object.get(i).copied()).collect()
 }
 
 /// How high the lowest corner of `object` at `pose` stands along `up` above `origin`.

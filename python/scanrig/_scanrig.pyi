@@ -176,7 +176,7 @@ def register(
 def calibrate_camera(
     captures: _Path,
     *,
-    board: tuple[int, int] = (9, 6),
+    board: tuple[int, int] | str = (9, 6),
     square: float = 15.0,
     out: Optional[_Path] = None,
     rig: Optional[_Path] = None,
@@ -192,7 +192,7 @@ def calibrate_camera(
 def calibrate_rig(
     captures: _Path,
     *,
-    board: tuple[int, int] = (9, 6),
+    board: tuple[int, int] | str = (9, 6),
     square: float = 15.0,
     out: Optional[_Path] = None,
     rig: Optional[_Path] = None,

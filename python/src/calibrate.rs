@@ -19,9 +19,17 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     Ok(())
 }
 
+/// A board as Python gives it: a chessboard's inner corners `(columns, rows)`, or a ChArUco board's
+/// description `"charuco:11x9:square=10:marker=7:dict=4x4_50"` (as the command line's `--board`).
+#[derive(FromPyObject)]
+enum Board {
+    Corners((u32, u32)),
+    Described(String),
+}
+
 /// The options every calibration shares, as the command line's flags.
 struct Options {
-    board: (u32, u32),
+    board: Board,
     square: f64,
     rig: Option<PathBuf>,
     out: Option<PathBuf>,
@@ -33,12 +41,19 @@ struct Options {
 }
 
 fn run<'py>(py: Python<'py>, captures: PathBuf, target: Target, o: Options) -> PyResult<(String, Bound<'py, PyAny>)> {
-    if o.board.0 < 2 || o.board.1 < 2 {
-        return Err(PyValueError::new_err(format!(
-            "board: inner corners (columns, rows), at least 2×2, got {}×{}",
-            o.board.0, o.board.1
-        )));
-    }
+    let (cols, rows, charuco) = match &o.board {
+        Board::Corners((c, r)) if *c < 2 || *r < 2 => {
+            return Err(PyValueError::new_err(format!(
+                "board: inner corners (columns, rows), at least 2×2, got {c}×{r}"
+            )));
+        }
+        Board::Corners((c, r)) => (*c, *r, None),
+        Board::Described(text) => {
+            let (c, r, square, markers) =
+                calib::charuco::parse(text).map_err(|e| PyValueError::new_err(format!("board: {e}")))?;
+            (c, r, Some((square, markers)))
+        }
+    };
     let lens_model = match o.lens_model.as_str() {
         "auto" => calib::LensModel::Auto,
         "full" => calib::LensModel::Full,
@@ -64,7 +79,12 @@ fn run<'py>(py: Python<'py>, captures: PathBuf, target: Target, o: Options) -> P
     });
     let params = RigCalibParams {
         target,
-        board: BoardSpec { cols: o.board.0 as usize, rows: o.board.1 as usize, square_mm: o.square },
+        board: BoardSpec {
+            cols: cols as usize,
+            rows: rows as usize,
+            square_mm: charuco.map_or(o.square, |c| c.0),
+            markers: charuco.map(|c| c.1),
+        },
         orientation,
         lens: o.lens,
         lens_model,
@@ -101,12 +121,12 @@ fn lens(fix_aspect_ratio: bool, fix_principal_point: bool, zero_tangential: bool
 /// `lens_model`: "auto" estimates the distortion terms the views support (the report's
 /// `camera.model` says which and why), "full" every term not fixed.
 #[pyfunction]
-#[pyo3(signature = (captures, *, board=(9, 6), square=15.0, out=None, rig=None, fix_aspect_ratio=false, fix_principal_point=false, zero_tangential=false, fix_k3=false, lens_model="auto".to_string(), force=false))]
+#[pyo3(signature = (captures, *, board=Board::Corners((9, 6)), square=15.0, out=None, rig=None, fix_aspect_ratio=false, fix_principal_point=false, zero_tangential=false, fix_k3=false, lens_model="auto".to_string(), force=false))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate_camera<'py>(
     py: Python<'py>,
     captures: PathBuf,
-    board: (u32, u32),
+    board: Board,
     square: f64,
     out: Option<PathBuf>,
     rig: Option<PathBuf>,
@@ -136,12 +156,12 @@ fn calibrate_camera<'py>(
 /// turntable axis from the board turned on the platter. Returns (rig TOML text, report dict); with
 /// `out`, the rig file is written.
 #[pyfunction]
-#[pyo3(signature = (captures, *, board=(9, 6), square=15.0, out=None, rig=None, projector=None, corner_height=None, fix_aspect_ratio=false, fix_principal_point=false, zero_tangential=false, fix_k3=false, lens_model="auto".to_string(), force=false))]
+#[pyo3(signature = (captures, *, board=Board::Corners((9, 6)), square=15.0, out=None, rig=None, projector=None, corner_height=None, fix_aspect_ratio=false, fix_principal_point=false, zero_tangential=false, fix_k3=false, lens_model="auto".to_string(), force=false))]
 #[allow(clippy::too_many_arguments)]
 fn calibrate_rig<'py>(
     py: Python<'py>,
     captures: PathBuf,
-    board: (u32, u32),
+    board: Board,
     square: f64,
     out: Option<PathBuf>,
     rig: Option<PathBuf>,

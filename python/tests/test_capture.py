@@ -123,6 +123,22 @@ def test_calibrate_camera_equals_the_cli_and_finds_the_true_lens(tmp_path):
     assert report["camera"]["model"]["estimated"][:2] == ["k1", "k2"]
     with pytest.raises(ValueError, match="lens_model"):
         scanrig.calibrate_camera(caps, square=11, lens_model="fancy")
+    # A ChArUco board's description goes through the command line's parser.
+    with pytest.raises(ValueError, match="board: .*dict=4x4_5"):
+        scanrig.calibrate_camera(caps, board="charuco:11x9:square=10:marker=7:dict=4x4_5")
+
+
+def test_a_charuco_board_calibrates_as_the_cli_does(tmp_path):
+    caps = tmp_path / "caps"
+    board = "charuco:11x9:square=12:marker=9:dict=4x4_50"
+    run("sim", "--config", "laser", "--board", board, "--poses", "6", "--no-truth", "--out", caps)
+    exact = tomllib.loads((caps / "rig.toml").read_text())["camera"]
+    text, report = scanrig.calibrate_camera(caps, board=board)
+    run("calibrate", "camera", caps, "-o", tmp_path / "cli.toml", "--board", board)
+    ours, theirs = tomllib.loads(text)["camera"], tomllib.loads((tmp_path / "cli.toml").read_text())["camera"]
+    assert ours == theirs
+    assert abs(ours["fx_px"] - exact["fx_px"]) / exact["fx_px"] < 0.005, (ours, exact)
+    assert report["board"]["charuco"].startswith("markers 9 mm")
 
 
 def test_calibrate_rig_equals_the_cli_and_finds_the_true_projector(tmp_path):

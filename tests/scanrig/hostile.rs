@@ -371,6 +371,11 @@ fn option_cases() -> Vec<Case> {
     );
     each(&mut cases, "calibrate camera calib -o rig.toml --fix-k3 --board {v}x5", "--board", &["rig.toml"]);
     each(&mut cases, &format!("{calibrate} --lens-model {{v}}"), "--lens-model", &["rig.toml"]);
+    // A ChArUco board's description: every length and the dictionary through the same parser.
+    for field in ["square={v}:marker=7", "square=10:marker={v}"] {
+        let board = format!("charuco:11x9:{field}:dict=4x4_50");
+        each(&mut cases, &format!("calibrate camera calib -o rig.toml --board {board}"), "--board", &["rig.toml"]);
+    }
     each(
         &mut cases,
         &format!("{calibrate} --projector {{v}}x768"),

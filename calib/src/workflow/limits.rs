@@ -78,7 +78,7 @@ mod tests {
     fn params() -> RigCalibParams {
         RigCalibParams {
             target: Target::All,
-            board: BoardSpec { cols: 9, rows: 6, square_mm: 11.0 },
+            board: BoardSpec { cols: 9, rows: 6, square_mm: 11.0, markers: None },
             orientation: Default::default(),
             lens: Default::default(),
             lens_model: Default::default(),

@@ -161,7 +161,7 @@ pub enum WorkflowError {
     Param(#[from] rig::limits::ParamError),
 }
 
-/// The chessboard: inner corners across and down, square size.
+/// The board: inner corners across and down, square size, and its markers if it is a ChArUco board.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BoardSpec {
     /// Inner corners across.
@@ -170,6 +170,8 @@ pub struct BoardSpec {
     pub rows: usize,
     /// Square size, mm.
     pub square_mm: Real,
+    /// A ChArUco board's markers (`crate::charuco`); `None`: a plain chessboard.
+    pub markers: Option<crate::charuco::CharucoMarkers>,
 }
 
 /// Everything [`calibrate_rig`] can be told.
@@ -217,7 +219,7 @@ pub fn calibrate_rig(
     mut progress: impl FnMut(&str, usize, usize),
 ) -> Result<(Rig, CalibReport), WorkflowError> {
     params.validate()?;
-    let BoardSpec { cols, rows, square_mm } = params.board;
+    let BoardSpec { cols, rows, square_mm, .. } = params.board;
     let board = Board {
         cols,
         rows,
@@ -244,7 +246,11 @@ pub fn calibrate_rig(
             }
             _ => {}
         }
-        match find_board(&Gray::from_image(&img), board.cols, board.rows) {
+        let corners = match &params.board.markers {
+            Some(m) => crate::charuco::find_charuco(&img, board.cols, board.rows, square_mm, m),
+            None => find_board(&Gray::from_image(&img), board.cols, board.rows),
+        };
+        match corners {
             Ok(b) => found.push(Found { position: p, ids: b.ids, corners: b.pixels, placement: b.placement }),
             Err(e) => missed.push((p.lit.clone(), e.to_string())),
         }
@@ -287,10 +293,10 @@ pub fn calibrate_rig(
     // The camera was calibrated on the turned frames: processing must turn them the same way.
     rig.image = params.orientation.0;
 
-    // The axis relates views to one another: whole boards only.
-    let whole = found.iter().filter(|f| f.placement == Placement::Whole).count();
+    // The axis relates views to one another: boards whose corners are known by their numbers.
+    let placed = found.iter().filter(|f| f.placement != Placement::Unplaced).count();
     let on_turntable =
-        found.iter().filter(|f| f.placement == Placement::Whole && f.position.angle_deg.is_some()).count();
+        found.iter().filter(|f| f.placement != Placement::Unplaced && f.position.angle_deg.is_some()).count();
     let captured_on_turntable = positions.iter().filter(|p| p.angle_deg.is_some()).count();
     let mut skipped = Vec::new();
     if params.target == Target::All && on_turntable < 3 && captured_on_turntable > 0 {
@@ -298,7 +304,7 @@ pub fn calibrate_rig(
         skipped.push(Skipped {
             step: "turntable".into(),
             why: format!(
-                "the whole board was found in {on_turntable} of the {captured_on_turntable} turntable views; the axis needs 3"
+                "the board was found and placed in {on_turntable} of the {captured_on_turntable} turntable views; the axis needs 3"
             ),
         });
     }
@@ -311,7 +317,7 @@ pub fn calibrate_rig(
         report.turntable = Some(r);
     } else if params.target == Target::All
         && captured_on_turntable == 0
-        && whole >= 3
+        && placed >= 3
         && base.is_some_and(|r| r.turntable.is_some())
     {
         // A turntable scanner's image folder (FabScanPi's sweep): no angles were recorded, but the
@@ -367,7 +373,12 @@ pub fn calibrate_rig(
     report.not_found = missed.iter().map(|(f, why)| NotFound { image: f.clone(), why: why.clone() }).collect();
     let partial = found.iter().filter(|f| f.placement != Placement::Whole).count();
     report.board_found = BoardFound { found: found.len(), of: positions.len(), partial };
-    report.board = BoardReport { cols, rows, square_mm };
+    report.board = BoardReport {
+        cols,
+        rows,
+        square_mm,
+        charuco: params.board.markers.map(|m| format!("markers {} mm, dictionary {}", m.marker_mm, m.dictionary)),
+    };
     report.skipped = skipped;
     report.warnings = plausible::findings(&rig, &report);
     Ok((rig, report))

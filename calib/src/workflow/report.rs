@@ -289,7 +289,7 @@ pub struct BoardFound {
 }
 
 /// The board: inner corners and square size.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct BoardReport {
     /// Inner corners along a row.
     pub cols: usize,
@@ -298,6 +298,9 @@ pub struct BoardReport {
     /// Square size (mm).
     #[serde(deserialize_with = "figure")]
     pub square_mm: Real,
+    /// A ChArUco board's markers, in words; absent for a plain chessboard.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub charuco: Option<String>,
 }
 
 /// A step the captures were taken for but could not serve.

@@ -7,10 +7,10 @@ use super::report::{BoardPose, BoardView, CameraReport, LaserReport, LensReport,
 use super::{Step, WorkflowError as E};
 use crate::laser_plane::on_even_print;
 use crate::lens_model::{Coverage, LensModel, choose};
-use crate::turntable_axis::board_pose;
+use crate::turntable_axis::{board_pose, fit_axis_seen};
 use crate::{
     BoardRegion, CameraOptions, LaserView, Placement, StereoView, SweepView, View, calibrate_camera,
-    calibrate_projector, fit_axis, fit_laser_plane, fit_sweep, projector_corners,
+    calibrate_projector, fit_laser_plane, fit_sweep, projector_corners,
 };
 use decode::laser_line::{LaserParams, detect_line_within};
 use decode::structured_light::{DecodeParams, decode_view};
@@ -168,21 +168,25 @@ fn board_view(f: &Found, rms: Real, pose: &Isometry3, board: &Board, camera: &Pi
 
 /// The turntable axis: from the views with recorded angles adjusted as one sweep, or without angles
 /// (an image folder) from the corners' circles. Also returns the sweep's board poses by position
-/// (for the laser step). Only whole boards are used: the axis relates views to one another, and a
-/// corner's circle needs that corner in every view.
+/// (for the laser step). Whole boards and parts placed on the board are used; a part whose place is
+/// unknown is not: the axis relates views to one another, which a shifted numbering would turn.
 pub fn turntable(
     found: &[Found],
     board: &Board,
     camera: &PinholeCamera,
     corner_height_mm: Real,
 ) -> Result<(TurntableAxis, Vec<Option<Isometry3>>, TurntableReport), E> {
-    let whole: Vec<usize> = (0..found.len()).filter(|&k| found[k].placement == Placement::Whole).collect();
-    let swept: Vec<usize> = whole.iter().copied().filter(|&k| found[k].position.angle_deg.is_some()).collect();
+    let placed: Vec<usize> = (0..found.len()).filter(|&k| found[k].placement != Placement::Unplaced).collect();
+    let swept: Vec<usize> = placed.iter().copied().filter(|&k| found[k].position.angle_deg.is_some()).collect();
     let names = || some_files(found.iter().map(|f| &f.position.lit));
     if swept.len() >= 3 {
         let views: Vec<SweepView> = swept
             .iter()
-            .map(|&k| SweepView { angle_deg: found[k].position.angle_deg.unwrap(), corners: found[k].corners.clone() })
+            .map(|&k| SweepView {
+                angle_deg: found[k].position.angle_deg.unwrap(),
+                corners: found[k].corners.clone(),
+                ids: found[k].ids.clone(),
+            })
             .collect();
         let fit = fit_sweep(camera, &board.object, &views, corner_height_mm).map_err(|source| E::Step {
             step: Step::Turntable,
@@ -204,12 +208,13 @@ pub fn turntable(
         };
         return Ok((fit.axis, poses, report));
     }
-    if found.iter().any(|f| f.position.angle_deg.is_some()) || whole.len() < 3 {
+    if found.iter().any(|f| f.position.angle_deg.is_some()) || placed.len() < 3 {
         return Err(E::TooFewTurntableViews { found: swept.len(), files: names() });
     }
     // An image folder: every view is taken to be on the turntable, angles unknown.
-    let corners: Vec<Vec<Point2>> = whole.iter().map(|&k| found[k].corners.clone()).collect();
-    let fit = fit_axis(camera, &board.object, &corners, corner_height_mm).map_err(|source| E::Step {
+    let views: Vec<(&[usize], &[Point2])> =
+        placed.iter().map(|&k| (found[k].ids.as_slice(), found[k].corners.as_slice())).collect();
+    let fit = fit_axis_seen(camera, &board.object, &views, corner_height_mm).map_err(|source| E::Step {
         step: Step::Turntable,
         source,
         files: names(),

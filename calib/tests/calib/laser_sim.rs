@@ -28,8 +28,10 @@ fn laser_lines_on_a_swept_board_give_the_laser_planes() {
     }
     assert!(found.len() >= 15, "the board was found in {} views", found.len());
     // Board poses from the whole sweep adjusted as one turn (per-view poses tilt the planes).
-    let sweep: Vec<SweepView> =
-        found.iter().map(|(v, _, c)| SweepView { angle_deg: v.angle_deg, corners: c.clone() }).collect();
+    let sweep: Vec<SweepView> = found
+        .iter()
+        .map(|(v, _, c)| SweepView { angle_deg: v.angle_deg, corners: c.clone(), ids: Vec::new() })
+        .collect();
     // The lowest inner corners stand two squares above the platter (a square to the margin's edge, a
     // square of margin).
     let platter = 2.0 * board.square_mm;

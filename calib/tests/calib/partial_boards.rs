@@ -4,8 +4,7 @@
 //! calibration workflow finds the corners it can see, places them on the board, and calibrates the
 //! camera within 0.5 % of the simulator's focal length and 2 px of its principal point.
 
-use calib::workflow::{Orientation, Step, Target, load};
-use calib::{BoardSpec, Gray, LensModel, Placement, RigCalibParams, calibrate_rig, find_corners};
+use calib::{BoardSpec, Gray, Placement, find_corners};
 use rig::math::{Isometry3, Point2, Translation3, Vector3};
 use rig::npy::NpyData;
 use rig::{Manifest, Pattern};
@@ -64,17 +63,8 @@ fn boards_a_third_hidden_calibrate_the_camera() {
         assert!(find_corners(&img, 9, 6).is_err(), "{}: the whole board is in view", lit.file);
     }
 
-    let params = RigCalibParams {
-        target: Target::Only(Step::Camera),
-        board: BoardSpec { cols: 9, rows: 6, square_mm: 11.0 },
-        orientation: Orientation::default(),
-        lens: Default::default(),
-        lens_model: LensModel::Auto,
-        corner_height_mm: None,
-        projector_size: None,
-    };
-    let positions = load(&dir, Orientation::default(), None, |_, _| {}).unwrap();
-    let (rig, report) = calibrate_rig(&positions, None, &params, |_, _, _| {}).unwrap();
+    let (rig, report) =
+        crate::calibrate_camera_from(&dir, BoardSpec { cols: 9, rows: 6, square_mm: 11.0, markers: None });
     let cam = report.camera.as_ref().unwrap();
     assert_eq!(report.board_found.found, 12, "{:?}", report.not_found);
     assert_eq!(report.board_found.partial, 12);
