@@ -247,6 +247,10 @@ fn print(args: &CalibrateArgs, r: &CalibReport, report_path: &Path) -> Result<()
     if let Some(p) = &r.projector {
         lens_line(&mut o, "projector", (p.lens.width, p.lens.height), [p.lens.fx, p.lens.fy, p.lens.cx, p.lens.cy])?;
         writeln!(o, "    camera → projector translation ({}) mm", list(&p.translation_mm, 3).join(", "))?;
+        writeln!(o, "    lens model: estimated {}", p.model.estimated.join(" "))?;
+        for held in &p.model.held {
+            writeln!(o, "      {held}")?;
+        }
         writeln!(
             o,
             "    RMS: projector alone {:.3} px; stereo {:.3} px (camera {:.3}, projector {:.3}); {} corners, {} skipped",

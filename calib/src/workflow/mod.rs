@@ -363,9 +363,10 @@ pub fn calibrate_rig(
             .projector_size
             .or_else(|| base.and_then(|r| r.projector.as_ref()).map(|p| (p.lens.width, p.lens.height)))
             .ok_or(WorkflowError::ProjectorSize)?;
-        let (lens, from_camera, r) = steps::projector(&found, &board, &camera, size, turn, params.lens, |d, t| {
-            progress("decoding structured light", d, t)
-        })?;
+        let (lens, from_camera, r) =
+            steps::projector(&found, &board, &camera, size, turn, (params.lens, params.lens_model), |d, t| {
+                progress("decoding structured light", d, t)
+            })?;
         let gamma = rig.projector.as_ref().map_or(1.0, |p| p.gamma);
         rig.projector = Some(Projector { lens, from_camera, gamma });
         report.projector = Some(r);

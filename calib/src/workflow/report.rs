@@ -264,6 +264,10 @@ pub struct ProjectorReport {
     pub corners_skipped: usize,
     /// The window around a corner its projector position is fitted in (px).
     pub window_px: usize,
+    /// The projector's lens terms estimated and held, with why (`crate::lens_model`'s rule on the
+    /// corners' spread in the projector's image).
+    #[serde(default)]
+    pub model: crate::lens_model::ModelChoice,
 }
 
 /// An image without the board.

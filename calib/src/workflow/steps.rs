@@ -338,7 +338,7 @@ pub fn projector(
     camera: &PinholeCamera,
     size: (u32, u32),
     turn: Orientation,
-    opts: CameraOptions,
+    (user, model): (CameraOptions, LensModel),
     mut progress: impl FnMut(usize, usize),
 ) -> Result<(PinholeCamera, Isometry3, ProjectorReport), E> {
     let with: Vec<&Found> = found.iter().filter(|f| !f.position.structured.is_empty()).collect();
@@ -363,6 +363,9 @@ pub fn projector(
             projector: projector_corners(&f.corners, &map, half),
         });
     }
+    // The projector's lens terms follow from where the corners fell in its image, as the camera's do.
+    let seen: Vec<Vec<Point2>> = views.iter().map(|v| v.projector.iter().flatten().copied().collect()).collect();
+    let (opts, model) = choose(model, user, &Coverage::of(seen.iter().map(|v| v.as_slice()), size.0, size.1));
     let p = calibrate_projector(camera, &views, size.0, size.1, opts).map_err(|source| E::Step {
         step: Step::Projector,
         source,
@@ -380,6 +383,7 @@ pub fn projector(
         corners_used: p.corners_used,
         corners_skipped: p.corners_skipped,
         window_px: 2 * half + 1,
+        model,
     };
     Ok((p.lens, p.from_camera, report))
 }
