@@ -100,7 +100,7 @@ fn covariance(points: &[Point3], nb: &[usize]) -> Matrix3 {
 }
 
 /// The normal of the plane through `nb` (least squares), turned to the side of `toward`.
-fn plane_normal(points: &[Point3], nb: &[usize], toward: Vector3) -> Vector3 {
+pub(crate) fn plane_normal(points: &[Point3], nb: &[usize], toward: Vector3) -> Vector3 {
     let eig = covariance(points, nb).symmetric_eigen();
     let n = eig.eigenvectors.column(eig.eigenvalues.imin()).into_owned();
     if n.dot(&toward) < 0.0 { -n } else { n }

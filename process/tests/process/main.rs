@@ -3,6 +3,7 @@
 mod acceptance;
 mod colour;
 mod denoise;
+mod global;
 mod icp;
 mod laser_real;
 mod mean_shift;

@@ -1,0 +1,319 @@
+//! Registration with no pose to start from (issue 40): a second pass of an object flipped on the
+//! turntable, or another tool's scan, lies anywhere. Both clouds are thinned to an even spacing,
+//! described point by point by their local shape ([`super::features`], FPFH), matched where two
+//! descriptors are each other's nearest, and the rigid motion most matches agree on is found by
+//! RANSAC over triples of matches — a triple whose sides differ in length is rejected before any
+//! counting, as Open3D's edge-length checker does (Zhou, Park and Koltun's pipeline) — then refined
+//! by the robust point-to-plane ICP the turntable views use ([`super::icp`]).
+//!
+//! A wrong alignment reported as right is the worst outcome, so the result says how sure it is:
+//! the share of the moving cloud that lands on the fixed one, the matches that agree, and the best
+//! *other* motion the matches allowed — a symmetric or featureless object (a sphere, a cylinder)
+//! agrees with many, and is then called ambiguous, not aligned.
+
+use super::features::{Fpfh, fpfh, nearest, outward_normals, voxel_thin};
+use super::icp::{IcpParams, IcpTarget, icp};
+use crate::kd_tree::PointTree;
+use rayon::prelude::*;
+use rig::math::{Isometry3, Matrix3, Point3, Real, Rotation3, Translation3, UnitQuaternion, Vector3};
+use serde::Serialize;
+
+/// Settings of [`align_global`]. Lengths in the data's units (the defaults suit millimetres).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct GlobalParams {
+    /// The spacing both clouds are thinned to.
+    pub voxel: Real,
+    /// Most RANSAC triples tried.
+    pub max_iterations: usize,
+    /// Stop once this sure that a better motion would have been drawn.
+    pub confidence: Real,
+    /// The seed of the triples drawn: the same clouds and seed give the same answer.
+    pub seed: u64,
+    /// Fewest matches agreeing on the motion for it to be called aligned.
+    pub min_inliers: usize,
+    /// Least share of the moving cloud that must land on the fixed one.
+    pub min_overlap: Real,
+}
+
+impl Default for GlobalParams {
+    fn default() -> Self {
+        GlobalParams {
+            voxel: 2.0,
+            max_iterations: 100_000,
+            confidence: 0.999,
+            seed: 0x5ca9_419b,
+            min_inliers: 20,
+            min_overlap: 0.15,
+        }
+    }
+}
+
+/// What [`align_global`] found.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GlobalAlignment {
+    /// The motion taking moving coordinates into the fixed frame.
+    #[serde(skip)]
+    pub pose: Isometry3,
+    /// Whether it is trusted: enough matches agree, enough of the cloud lands, and no other motion
+    /// does nearly as well.
+    pub aligned: bool,
+    /// Why not, in words (empty when aligned).
+    pub why: String,
+    /// Descriptor matches (mutual nearest neighbours).
+    pub matches: usize,
+    /// Of which agree with the motion.
+    pub inliers: usize,
+    /// Share of the thinned moving cloud within two spacings of the fixed one, after refinement.
+    pub overlap: Real,
+    /// RMS distance of those points to their nearest fixed points.
+    pub rms: Real,
+    /// The best motion at least 15° or ten spacings from this one: its overlap as a share of this
+    /// one's (near 1: ambiguous).
+    pub rival_share: Real,
+    /// RANSAC triples tried.
+    pub iterations: usize,
+}
+
+/// Why global registration could not run.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum GlobalError {
+    /// A cloud with too few points at the spacing.
+    #[error("the {which} cloud has {points} points at a {voxel} spacing; at least 30 are needed")]
+    TooFewPoints {
+        /// "moving" or "fixed".
+        which: &'static str,
+        /// Points after thinning.
+        points: usize,
+        /// The spacing.
+        voxel: Real,
+    },
+}
+
+/// A cloud thinned, with its normals, tree and descriptors.
+struct Described {
+    points: Vec<Point3>,
+    normals: Vec<Vector3>,
+    tree: PointTree,
+    features: Vec<Fpfh>,
+}
+
+fn describe(points: &[Point3], voxel: Real, which: &'static str) -> Result<Described, GlobalError> {
+    let points = voxel_thin(points, voxel);
+    if points.len() < 30 {
+        return Err(GlobalError::TooFewPoints { which, points: points.len(), voxel });
+    }
+    let tree = PointTree::new(&points);
+    let normals = outward_normals(&points, &tree, 2.0 * voxel);
+    let features = fpfh(&points, &normals, &tree, 5.0 * voxel);
+    Ok(Described { points, normals, tree, features })
+}
+
+/// The rigid motion taking `from` onto `to` in the least-squares sense (Kabsch / Horn).
+pub fn rigid_fit(from: &[Point3], to: &[Point3]) -> Option<Isometry3> {
+    let n = from.len().min(to.len());
+    if n < 3 {
+        return None;
+    }
+    let cf = from.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n as Real;
+    let ct = to.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / n as Real;
+    let mut h = Matrix3::zeros();
+    for (a, b) in from.iter().zip(to) {
+        h += (a.coords - cf) * (b.coords - ct).transpose();
+    }
+    let svd = h.svd(true, true);
+    let (u, vt) = (svd.u?, svd.v_t?);
+    let mut d = Matrix3::identity();
+    if (vt.transpose() * u.transpose()).determinant() < 0.0 {
+        d[(2, 2)] = -1.0;
+    }
+    let r = Rotation3::from_matrix_unchecked(vt.transpose() * d * u.transpose());
+    let t = ct - r * cf;
+    Some(Isometry3::from_parts(Translation3::from(t), UnitQuaternion::from_rotation_matrix(&r)))
+}
+
+/// A small, seeded generator for the triples (splitmix64).
+struct Draw(u64);
+
+impl Draw {
+    fn below(&mut self, n: usize) -> usize {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) % n as u64) as usize
+    }
+}
+
+/// Whether two motions are the same up to `degrees` and `shift`.
+fn near(a: &Isometry3, b: &Isometry3, degrees: Real, shift: Real) -> bool {
+    (a.rotation.inverse() * b.rotation).angle().to_degrees() < degrees
+        && (a.translation.vector - b.translation.vector).norm() < shift
+}
+
+/// The matches that agree with `pose` (within `limit`).
+fn agreeing(pose: &Isometry3, m: &[Point3], f: &[Point3], matches: &[(usize, usize)], limit: Real) -> usize {
+    matches.iter().filter(|&&(i, j)| (pose * m[i] - f[j]).norm_squared() < limit * limit).count()
+}
+
+/// A motion and how many matches agree with it.
+type Hypothesis = (Isometry3, usize);
+
+/// RANSAC over triples of matches: the motion most matches agree with, and the best one far from it.
+fn ransac(
+    m: &[Point3],
+    f: &[Point3],
+    matches: &[(usize, usize)],
+    params: &GlobalParams,
+) -> (Option<Hypothesis>, Option<Hypothesis>, usize) {
+    let limit = 1.5 * params.voxel;
+    let mut draw = Draw(params.seed);
+    let (mut best, mut rival): (Option<Hypothesis>, Option<Hypothesis>) = (None, None);
+    let mut needed = params.max_iterations;
+    let mut it = 0;
+    while it < needed.min(params.max_iterations) {
+        it += 1;
+        let t = [draw.below(matches.len()), draw.below(matches.len()), draw.below(matches.len())];
+        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            continue;
+        }
+        let (a, b): (Vec<Point3>, Vec<Point3>) = t.iter().map(|&k| (m[matches[k].0], f[matches[k].1])).unzip();
+        // Early rejection: a rigid motion keeps the triangle's sides.
+        let sides_agree = (0..3).all(|e| {
+            let (da, db) = ((a[e] - a[(e + 1) % 3]).norm(), (b[e] - b[(e + 1) % 3]).norm());
+            da > 2.0 * params.voxel && (da.min(db) / da.max(db)) > 0.9
+        });
+        if !sides_agree {
+            continue;
+        }
+        let Some(pose) = rigid_fit(&a, &b) else { continue };
+        if a.iter().zip(&b).any(|(p, q)| (pose * p - q).norm() > limit) {
+            continue;
+        }
+        let count = agreeing(&pose, m, f, matches, limit);
+        match best {
+            Some((bp, bc)) if count <= bc => {
+                if !near(&bp, &pose, 15.0, 10.0 * params.voxel) && rival.is_none_or(|r| count > r.1) {
+                    rival = Some((pose, count));
+                }
+            }
+            _ => {
+                if let Some(old) = best.filter(|(bp, _)| !near(bp, &pose, 15.0, 10.0 * params.voxel))
+                    && rival.is_none_or(|r| old.1 > r.1)
+                {
+                    rival = Some(old);
+                }
+                if rival.is_some_and(|(rp, _)| near(&rp, &pose, 15.0, 10.0 * params.voxel)) {
+                    rival = None;
+                }
+                best = Some((pose, count));
+                // Triples needed to have drawn three agreeing matches with this confidence.
+                let w = (count as Real / matches.len() as Real).powi(3).min(1.0 - 1e-12);
+                if w > 0.0 {
+                    needed = ((1.0 - params.confidence).ln() / (1.0 - w).ln()).ceil().max(1000.0) as usize;
+                }
+            }
+        }
+    }
+    (best, rival, it)
+}
+
+/// Share of `m` within two spacings of `f` under `pose`, and those points' RMS distance.
+fn overlap(pose: &Isometry3, m: &[Point3], f: &PointTree, voxel: Real) -> (Real, Real) {
+    let limit2 = (2.0 * voxel) * (2.0 * voxel);
+    let d2: Vec<Real> = m.par_iter().map(|p| f.nearest(&(pose * p)).1).filter(|&d| d <= limit2).collect();
+    let rms = (d2.iter().sum::<Real>() / d2.len().max(1) as Real).sqrt();
+    (d2.len() as Real / m.len().max(1) as Real, rms)
+}
+
+/// Refines a motion by ICP on the thinned clouds; the start if ICP cannot run.
+fn refine(start: &Isometry3, m: &Described, target: &IcpTarget, voxel: Real) -> Isometry3 {
+    let params = IcpParams { start_distance: 4.0 * voxel, min_distance: voxel, sample: 0, ..IcpParams::default() };
+    icp(&m.points, &m.normals, target, start, &params).map(|r| r.0).unwrap_or(*start)
+}
+
+/// Aligns `moving` onto `fixed` with no starting pose (see the module notes).
+pub fn align_global(
+    moving: &[Point3],
+    fixed: &[Point3],
+    params: &GlobalParams,
+) -> Result<GlobalAlignment, GlobalError> {
+    let m = describe(moving, params.voxel, "moving")?;
+    let f = describe(fixed, params.voxel, "fixed")?;
+    // Matches: descriptors that are each other's nearest.
+    let forward: Vec<usize> = m.features.par_iter().map(|d| nearest(d, &f.features)).collect();
+    let backward: Vec<usize> = f.features.par_iter().map(|d| nearest(d, &m.features)).collect();
+    let mut matches: Vec<(usize, usize)> =
+        forward.iter().enumerate().filter(|&(i, &j)| backward[j] == i).map(|(i, &j)| (i, j)).collect();
+    if matches.len() < 3 * params.min_inliers {
+        // Too few mutual matches on a small or repetitive cloud: take every forward match.
+        matches = forward.iter().enumerate().map(|(i, &j)| (i, j)).collect();
+    }
+    let (best, rival, iterations) = ransac(&m.points, &f.points, &matches, params);
+    let target = IcpTarget::new(f.points.clone(), f.normals.clone(), None);
+    let Some((start, inliers)) = best else {
+        return Ok(GlobalAlignment {
+            pose: Isometry3::identity(),
+            aligned: false,
+            why: "no three matches agreed on a rigid motion".into(),
+            matches: matches.len(),
+            inliers: 0,
+            overlap: 0.0,
+            rms: Real::NAN,
+            rival_share: 0.0,
+            iterations,
+        });
+    };
+    let pose = refine(&start, &m, &target, params.voxel);
+    let (share, rms) = overlap(&pose, &m.points, &f.tree, params.voxel);
+    // The other motion, refined and measured the same way: a symmetric object lands as well turned.
+    let rival_share = rival.map_or(0.0, |(r, _)| {
+        let r = refine(&r, &m, &target, params.voxel);
+        if near(&r, &pose, 15.0, 10.0 * params.voxel) {
+            0.0
+        } else {
+            overlap(&r, &m.points, &f.tree, params.voxel).0 / share.max(1e-12)
+        }
+    });
+    let why = if inliers < params.min_inliers {
+        format!("only {inliers} of {} matches agree (at least {} are needed)", matches.len(), params.min_inliers)
+    } else if share < params.min_overlap {
+        format!("only {:.0} % of the moving cloud lands on the fixed one", 100.0 * share)
+    } else if rival_share > 0.8 {
+        format!(
+            "ambiguous: another motion lands {:.0} % as much of the cloud (a symmetric or featureless object?)",
+            100.0 * rival_share
+        )
+    } else {
+        String::new()
+    };
+    Ok(GlobalAlignment {
+        pose,
+        aligned: why.is_empty(),
+        why,
+        matches: matches.len(),
+        inliers,
+        overlap: share,
+        rms,
+        rival_share,
+        iterations,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_least_squares_motion_of_exact_points_is_the_motion() {
+        let pose = Isometry3::from_parts(
+            Translation3::new(3.0, -40.0, 7.0),
+            UnitQuaternion::from_euler_angles(2.0, -0.5, 0.9),
+        );
+        let from: Vec<Point3> =
+            (0..10).map(|k| Point3::new(k as Real, (k * k) as Real * 0.3, (k % 3) as Real)).collect();
+        let to: Vec<Point3> = from.iter().map(|p| pose * p).collect();
+        let fit = rigid_fit(&from, &to).unwrap();
+        assert!(near(&fit, &pose, 1e-6, 1e-6), "{fit:?}");
+    }
+}
