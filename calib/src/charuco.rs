@@ -106,7 +106,7 @@ const REFINE_SHARE: Real = 0.4;
 const MAX_REFINE_PX: Real = 0.5;
 
 /// The square in pixels: the median distance between corners next to each other in a row.
-fn square_px(ids: &[usize], pixels: &[Point2], cols: usize) -> Real {
+pub(crate) fn square_px(ids: &[usize], pixels: &[Point2], cols: usize) -> Real {
     let mut d: Vec<Real> = ids
         .windows(2)
         .zip(pixels.windows(2))

@@ -218,8 +218,6 @@ pub(crate) enum Search {
     Part {
         /// Grid cell → pixel.
         cells: Cells,
-        /// The blur the grid was found at.
-        sigma: f64,
     },
     /// No grid; the most corner-like points seen (at most the board's count).
     Nothing(usize),
@@ -229,7 +227,7 @@ pub(crate) enum Search {
 pub(crate) fn search(img: &Gray, cols: usize, rows: usize) -> Search {
     let expected = cols * rows;
     let mut best_points = 0;
-    let mut best: Option<(Cells, f64)> = None;
+    let mut best: Option<Cells> = None;
     for sigma in [1.5, 3.0, 5.0] {
         let blurred = img.blur(sigma);
         let radius = (2.0 * sigma).round() as usize;
@@ -250,14 +248,14 @@ pub(crate) fn search(img: &Gray, cols: usize, rows: usize) -> Search {
                 let step = (oriented[1] - oriented[0]).norm().min((oriented[cols] - oriented[0]).norm());
                 return Search::Whole(refine_all(img, &oriented, step));
             }
-            if best.as_ref().is_none_or(|(b, _)| grid.len() > b.len()) {
-                best = Some((grid.iter().map(|(&c, &k)| (c, points[k])).collect(), sigma));
+            if best.as_ref().is_none_or(|b| grid.len() > b.len()) {
+                best = Some(grid.iter().map(|(&c, &k)| (c, points[k])).collect());
             }
         }
     }
     match best {
-        Some((cells, sigma)) if cells.len() >= 4 => Search::Part { cells, sigma },
-        Some((cells, _)) => Search::Nothing(best_points.max(cells.len())),
+        Some(cells) if cells.len() >= 4 => Search::Part { cells },
+        Some(cells) => Search::Nothing(best_points.max(cells.len())),
         None => Search::Nothing(best_points),
     }
 }

@@ -81,34 +81,31 @@ impl Coverage {
         self.cells.iter().filter(|&&c| c).count() as Real / self.cells.len().max(1) as Real
     }
 
-    /// The cells without a corner, named for a person ("top left", "middle right" …).
+    /// The regions of the image (a 3 × 3 split: "top left" … "bottom right") none of whose cells
+    /// holds a corner.
     pub fn missing(&self) -> Vec<String> {
-        let col = |i: usize| match i * 3 / CELLS_X {
-            0 => "left",
-            1 => "centre",
-            _ => "right",
-        };
         // The first and last rows of cells are the image's top and bottom, the rows between its middle.
-        let row = |j: usize| match j {
-            0 => "top",
-            j if j + 1 == CELLS_Y => "bottom",
-            _ => "middle",
+        let row = |j: usize| {
+            if j == 0 {
+                0
+            } else if j + 1 == CELLS_Y {
+                2
+            } else {
+                1
+            }
         };
-        let mut out: Vec<String> = Vec::new();
-        for (k, &c) in self.cells.iter().enumerate() {
-            let name = format!("{} {}", row(k / CELLS_X), col(k % CELLS_X));
-            if !c && !out.contains(&name) {
-                out.push(name);
+        let mut covered = [[false; 3]; 3];
+        for (k, _) in self.cells.iter().enumerate().filter(|(_, c)| **c) {
+            covered[row(k / CELLS_X)][k % CELLS_X * 3 / CELLS_X] = true;
+        }
+        let mut out = Vec::new();
+        for (row, name) in covered.iter().zip(["top", "middle", "bottom"]) {
+            for (seen, side) in row.iter().zip(["left", "centre", "right"]) {
+                if !seen {
+                    out.push(format!("{name} {side}"));
+                }
             }
         }
-        // A region is only said to be missing if none of its cells holds a corner.
-        out.retain(|name| {
-            !self
-                .cells
-                .iter()
-                .enumerate()
-                .any(|(k, &c)| c && format!("{} {}", row(k / CELLS_X), col(k % CELLS_X)) == *name)
-        });
         out
     }
 }

@@ -68,11 +68,11 @@ pub fn min_corners(cols: usize, rows: usize) -> usize {
 /// the board as far as the image tells (see the module notes).
 pub fn find_board(img: &Gray, cols: usize, rows: usize) -> Result<BoardCorners, NotFound> {
     let expected = cols * rows;
-    let (cells, _sigma) = match search(img, cols, rows) {
+    let cells = match search(img, cols, rows) {
         Search::Whole(pixels) => {
             return Ok(BoardCorners { ids: (0..expected).collect(), pixels, placement: Placement::Whole });
         }
-        Search::Part { cells, sigma } => (cells, sigma),
+        Search::Part { cells } => cells,
         Search::Nothing(found) if found < 4 => return Err(NotFound::TooFewCorners(found, expected)),
         Search::Nothing(found) => return Err(NotFound::Partial { found, expected }),
     };
@@ -164,8 +164,9 @@ impl<'a> Part<'a> {
         let mut cells = [(0, 0), (1, 0), (-1, 0), (0, 1), (0, -1)]
             .into_iter()
             .map(|(si, sj)| cells.iter().map(|&((i, j), p)| ((i + si * j, j + sj * i), p)).collect::<Vec<_>>())
-            .max_by(|a, b| checker_score(img, a).total_cmp(&checker_score(img, b)))
-            .unwrap_or(cells);
+            .map(|c| (checker_score(img, &c), c))
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .map_or(cells, |best| best.1);
         // Right-handed as the printed board is seen: turning from +i to +j is clockwise (y down).
         let at: HashMap<(i32, i32), Point2> = cells.iter().copied().collect();
         let (mut di, mut dj) = (Vector2::zeros(), Vector2::zeros());

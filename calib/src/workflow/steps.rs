@@ -35,15 +35,7 @@ impl Found<'_> {
 
     /// The board's square in pixels: the median distance between corners next to each other in a row.
     fn square_px(&self, cols: usize) -> Real {
-        let mut d: Vec<Real> = self
-            .ids
-            .windows(2)
-            .zip(self.corners.windows(2))
-            .filter(|(i, _)| i[1] == i[0] + 1 && i[1] % cols != 0)
-            .map(|(_, c)| (c[1] - c[0]).norm())
-            .collect();
-        d.sort_by(Real::total_cmp);
-        d.get(d.len() / 2).copied().unwrap_or(20.0)
+        crate::charuco::square_px(&self.ids, &self.corners, cols)
     }
 }
 

@@ -61,7 +61,11 @@ fn pair_angles(ps: &Point3, ns: &Vector3, pt: &Point3, nt: &Vector3) -> Option<(
     }
     let d = d / dist;
     // The source is the point whose normal makes the smaller angle with the line between them.
-    let (u, nt, d) = if ns.dot(&d).acos() <= (-nt).dot(&d).acos() { (*ns, *nt, d) } else { (*nt, *ns, -d) };
+    let (u, nt, d) = if ns.dot(&d).clamp(-1.0, 1.0).acos() <= (-nt).dot(&d).clamp(-1.0, 1.0).acos() {
+        (*ns, *nt, d)
+    } else {
+        (*nt, *ns, -d)
+    };
     let v = u.cross(&d);
     let vn = v.norm();
     if vn < 1e-12 {

@@ -177,7 +177,7 @@ fn ransac(
         if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
             continue;
         }
-        let (a, b): (Vec<Point3>, Vec<Point3>) = t.iter().map(|&k| (m[matches[k].0], f[matches[k].1])).unzip();
+        let (a, b) = (t.map(|k| m[matches[k].0]), t.map(|k| f[matches[k].1]));
         // Early rejection: a rigid motion keeps the triangle's sides.
         let sides_agree = (0..3).all(|e| {
             let (da, db) = ((a[e] - a[(e + 1) % 3]).norm(), (b[e] - b[(e + 1) % 3]).norm());
