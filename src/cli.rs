@@ -61,6 +61,9 @@ pub enum Command {
     Denoise(DenoiseArgs),
     /// Register a processed scan's views by multi-view ICP from the turntable poses, and merge them again.
     Register(RegisterArgs),
+    /// Align cloud A onto cloud B from any pose (another pass of the object, another tool's scan) by their
+    /// local shape; refuses an ambiguous match unless --force.
+    Align(AlignArgs),
     /// Fuse a registered point cloud by mean shift: smooth it, cluster it, remove outliers (thesis ch. 3).
     Fuse(FuseArgs),
     /// Reconstruct a watertight mesh from an oriented point cloud (thesis ch. 5).
@@ -806,6 +809,33 @@ pub enum CalibrateTarget {
     All,
     /// A camera from an OpenCV YAML file (camera_matrix, distortion_coefficients) into the rig.
     Import,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct AlignArgs {
+    /// Cloud A, the one to move (.ply, .obj, .off, .stl, .glb, .e57; a mesh's vertices).
+    pub moving: PathBuf,
+    /// Cloud B, the one A is moved onto.
+    pub fixed: PathBuf,
+    /// Write A moved into B's frame here (normals turned with it).
+    #[arg(long, short)]
+    pub out: Option<PathBuf>,
+    /// Write the motion and its confidence here as JSON (as --json prints).
+    #[arg(long)]
+    pub pose: Option<PathBuf>,
+    /// The spacing both clouds are thinned to for matching, in their units (default: 1/100 of B's
+    /// bounding-box diagonal).
+    #[arg(long)]
+    pub voxel: Option<f64>,
+    /// The seed of the random search: the same clouds and seed give the same answer.
+    #[arg(long, default_value_t = process::register::global::GlobalParams::default().seed)]
+    pub seed: u64,
+    /// Write the best guess even when it is not trusted (ambiguous, too little overlap).
+    #[arg(long)]
+    pub force: bool,
+    /// Print the result as JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 #[derive(clap::Args, Debug)]

@@ -148,3 +148,19 @@ pub struct Accuracy {
     /// Views measured.
     pub views: usize,
 }
+
+/// `scanrig align --json` (and `--pose FILE`): the motion found and how sure it is.
+#[derive(Debug, Serialize)]
+pub struct Aligned<'a> {
+    /// Cloud A, the one moved.
+    pub moving: &'a Path,
+    /// Cloud B, the one it was moved onto.
+    pub fixed: &'a Path,
+    /// The motion taking A's coordinates into B's, as a 4 × 4 matrix (rows; the last is 0 0 0 1).
+    pub pose: [[f64; 4]; 4],
+    /// The spacing the clouds were thinned to for matching.
+    pub voxel: f64,
+    /// Whether it is trusted and why not, the matches, overlap, residual and the best rival's share
+    /// ([`process::register::global::GlobalAlignment`]).
+    pub alignment: &'a process::register::global::GlobalAlignment,
+}

@@ -1,6 +1,7 @@
 //! `scanrig`: the command line. Arguments are parsed here ([`cli`]), turned into calls of the library
 //! crates, and results printed; no algorithm lives in the binary.
 
+mod align_cmd;
 mod calibrate;
 mod cli;
 mod convert;
@@ -51,6 +52,7 @@ fn main() -> ExitCode {
         cli::Command::Process(a) => process_cmd::run(&a),
         cli::Command::Decode(a) => decode_cmd::run(&a),
         cli::Command::Denoise(a) => denoise_cmd::run(&a),
+        cli::Command::Align(a) => align_cmd::run(&a),
         cli::Command::Fuse(a) => fuse_cmd::run(&a),
         cli::Command::Reconstruct(a) => reconstruct_cmd::run(&a),
         cli::Command::Register(a) => register_cmd::run(&a),

@@ -978,3 +978,53 @@ fn the_turntable_and_camera_commands_speak_plainly() {
         assert!(stdout(&o).contains("no camera found"), "{}", stdout(&o));
     }
 }
+
+/// A sphere of 4,000 points, radius 50, in its own frame.
+fn sphere_points() -> Vec<rig::Point3> {
+    let mut rng = fixtures::Rng::new(5);
+    (0..4000).map(|_| rig::Point3::from(rng.direction() * 50.0)).collect()
+}
+
+#[test]
+fn align_moves_a_bunny_scan_onto_its_neighbour_and_refuses_a_sphere_unless_forced() {
+    let d = Dir::new();
+    // A sphere against itself turned: every turn fits as well, so no turn is the answer.
+    let sphere = rig::PointCloud::from_positions(sphere_points());
+    let turned = rig::Isometry3::rotation(rig::Vector3::new(0.3, 1.1, -0.2));
+    let moved = rig::PointCloud::from_positions(sphere.positions.iter().map(|p| turned * p).collect());
+    rig::write_cloud(&d.path("sphere.ply"), &sphere, &Default::default()).unwrap();
+    rig::write_cloud(&d.path("moved.ply"), &moved, &Default::default()).unwrap();
+    let o = scanrig(&[&"align", &d.path("moved.ply"), &d.path("sphere.ply"), &"-o", &d.path("out.ply")]);
+    assert!(!o.status.success() && stderr(&o).contains("ambiguous") && stderr(&o).contains("moved.ply"), "{o:?}");
+    assert!(!d.path("out.ply").exists(), "a refused alignment wrote its guess");
+    let o = scanrig(&[&"align", &d.path("moved.ply"), &d.path("sphere.ply"), &"-o", &d.path("out.ply"), &"--force"]);
+    assert!(o.status.success() && stderr(&o).contains("warning: not aligned"), "{o:?}");
+    assert_eq!(rig::read_cloud(&d.path("out.ply")).unwrap().len(), 4000);
+
+    // The real bunny scans (in metres): bun045 onto bun000, judged against bun.conf.
+    let (Some(a), Some(b), Some(poses)) =
+        (fixtures::bunny_scan("bun045"), fixtures::bunny_scan("bun000"), fixtures::bunny_poses_mm())
+    else {
+        eprintln!("SKIPPED (bunny part): ../shared/data/stanford-bunny is absent");
+        return;
+    };
+    let o = scanrig(&[&"align", &a, &b, &"-o", &d.path("bun045_on_000.ply"), &"--json"]);
+    assert!(o.status.success(), "{o:?}");
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(json["alignment"]["aligned"], true, "{json}");
+    let rows: Vec<f64> = json["pose"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|r| r.as_array().unwrap().clone())
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    let found: rig::Isometry3 = nalgebra::try_convert(nalgebra::Matrix4::from_row_slice(&rows)).unwrap();
+    let truth = poses["bun000"].inverse() * poses["bun045"];
+    let angle = (found.rotation.inverse() * truth.rotation).angle().to_degrees();
+    let shift_mm = (found.translation.vector * 1000.0 - truth.translation.vector).norm();
+    eprintln!("bun045 → bun000 from the files: {angle:.3}° and {shift_mm:.3} mm from bun.conf");
+    assert!(angle < 0.5 && shift_mm < 1.0, "{angle}° {shift_mm} mm");
+    let written = rig::read_cloud(&d.path("bun045_on_000.ply")).unwrap();
+    assert_eq!(written.len(), rig::read_cloud(&a).unwrap().len());
+}

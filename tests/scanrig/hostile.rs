@@ -191,7 +191,7 @@ fn implausible(command: &str, path: &Path) -> Option<String> {
             Ok(_) => Some("has no faces".into()),
             Err(e) => Some(format!("cannot be read back: {e}")),
         },
-        "fuse" | "denoise" if is("ply") => match rig::read_cloud(path) {
+        "fuse" | "denoise" | "align" if is("ply") => match rig::read_cloud(path) {
             Ok(c) if !c.positions.is_empty() => None,
             Ok(_) => Some("has no points".into()),
             Err(e) => Some(format!("cannot be read back: {e}")),
@@ -290,6 +290,9 @@ fn option_cases() -> Vec<Case> {
         }
     };
     each(&mut cases, "fuse cloud.ply -o out.ply --k {v}", "--k", &["out.ply"]);
+    // A sphere onto itself is refused as ambiguous (naming the files) unless forced; every spacing
+    // is refused by name or runs.
+    each(&mut cases, "align cloud.ply hardlink.ply -o out.ply --force --voxel {v}", "--voxel", &["out.ply"]);
     for o in ["--depth", "--smoothing-cells", "--memory-budget", "--trim"] {
         each(&mut cases, &format!("reconstruct cloud.ply -o out.ply {o} {{v}}"), o, &["out.ply"]);
     }
@@ -408,6 +411,8 @@ fn input_cases() -> Vec<Case> {
         cases.push(case(&format!("remesh {name} -o out.obj"), &[name], &["out.obj"]));
         cases.push(case(&format!("convert {name} out.obj"), &[name], &["out.obj"]));
         cases.push(case(&format!("info {name}"), &[name], &[]));
+        cases.push(case(&format!("align {name} cloud.ply -o out.ply"), &[name], &["out.ply"]));
+        cases.push(case(&format!("align cloud.ply {name} -o out.ply"), &[name], &["out.ply"]));
         cases.push(case(&format!("calibrate camera {name} -o rig.toml --board 7x5"), &[name], &["rig.toml"]));
         cases.push(case(&format!("import horus {name} -o rig.toml"), &[name], &["rig.toml"]));
         cases.push(case(&format!("import fabscan {name} -o rig.toml"), &[name], &["rig.toml"]));
@@ -417,6 +422,9 @@ fn input_cases() -> Vec<Case> {
     cases.push(case("fuse cloud.ply -o hardlink.ply", &["hardlink.ply"], &[]));
     cases.push(case("fuse cloud.ply -o out.ply --outliers cloud.ply", &["cloud.ply"], &["out.ply"]));
     cases.push(case("remesh mesh.ply -o mesh.ply", &["mesh.ply"], &[]));
+    cases.push(case("align cloud.ply mesh.ply -o mesh.ply", &["mesh.ply"], &[]));
+    cases.push(case("align cloud.ply mesh.ply -o out.ply --pose cloud.ply", &["cloud.ply"], &["out.ply"]));
+    cases.push(case("align cloud.ply hardlink.ply -o out.ply", &["cloud.ply"], &["out.ply"]));
     cases.push(case("convert cloud.ply cloud.ply", &["cloud.ply"], &[]));
     cases.push(case("reconstruct cloud.ply -o cloud.ply", &["cloud.ply"], &[]));
     cases.push(case("denoise grid.ply -o grid.ply", &["grid.ply"], &[]));

@@ -15,6 +15,7 @@ use super::features::{Fpfh, fpfh, nearest, outward_normals, voxel_thin};
 use super::icp::{IcpParams, IcpTarget, icp};
 use crate::kd_tree::PointTree;
 use rayon::prelude::*;
+use rig::limits::ParamError;
 use rig::math::{Isometry3, Matrix3, Point3, Real, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde::Serialize;
 
@@ -45,6 +46,62 @@ impl Default for GlobalParams {
             min_inliers: 20,
             min_overlap: 0.15,
         }
+    }
+}
+
+/// Most points a thinned cloud may keep: the descriptors' cost grows with them, and a spacing that
+/// keeps more is a spacing far finer than matching shapes needs.
+pub const MAX_THINNED: usize = 300_000;
+
+/// The spacing's bounds against the fixed cloud's bounding-box diagonal: finer than 1/10,000 of it
+/// keeps every point, coarser than a third leaves a handful.
+const VOXEL_SHARE: (Real, Real) = (1e-4, 1.0 / 3.0);
+
+impl GlobalParams {
+    /// Refuses a spacing that is no length (0, negative, NaN, infinite), before any file is read.
+    pub fn check_voxel(voxel: Option<Real>) -> Result<(), ParamError> {
+        match voxel {
+            Some(v) if !(v.is_finite() && v > 0.0) => Err(ParamError {
+                option: "--voxel",
+                value: v.to_string(),
+                why: "the matching spacing must be a positive length in the clouds' units".into(),
+            }),
+            _ => Ok(()),
+        }
+    }
+
+    /// The settings for these two clouds: the spacing given, or 1/100 of the fixed cloud's
+    /// bounding-box diagonal (2 mm for a 20 cm object, the spacing the bunny benchmark uses), checked
+    /// against that diagonal; the seed given.
+    pub fn for_clouds(
+        moving: &[Point3],
+        fixed: &[Point3],
+        voxel: Option<Real>,
+        seed: u64,
+    ) -> Result<GlobalParams, GlobalError> {
+        Self::check_voxel(voxel)?;
+        let diagonal = |pts: &[Point3], which: &'static str| {
+            rig::Aabb::of(pts)
+                .map(|b| b.diagonal())
+                .filter(|d| d.is_finite() && *d > 0.0)
+                .ok_or(GlobalError::NoExtent { which })
+        };
+        diagonal(moving, "moving")?;
+        let d = diagonal(fixed, "fixed")?;
+        let voxel = voxel.unwrap_or(d / 100.0);
+        if !(VOXEL_SHARE.0 * d..=VOXEL_SHARE.1 * d).contains(&voxel) {
+            return Err(GlobalError::Param(ParamError {
+                option: "--voxel",
+                value: voxel.to_string(),
+                why: format!(
+                    "the fixed cloud's bounding box is {d:.4} across: the matching spacing must lie between {:.4} and \
+                     {:.4} (1/10,000 and 1/3 of it)",
+                    VOXEL_SHARE.0 * d,
+                    VOXEL_SHARE.1 * d
+                ),
+            }));
+        }
+        Ok(GlobalParams { voxel, seed, ..GlobalParams::default() })
     }
 }
 
@@ -79,7 +136,7 @@ pub struct GlobalAlignment {
 #[non_exhaustive]
 pub enum GlobalError {
     /// A cloud with too few points at the spacing.
-    #[error("the {which} cloud has {points} points at a {voxel} spacing; at least 30 are needed")]
+    #[error("the {which} cloud has {points} points at a {voxel} spacing; at least 30 are needed (a smaller --voxel?)")]
     TooFewPoints {
         /// "moving" or "fixed".
         which: &'static str,
@@ -88,6 +145,27 @@ pub enum GlobalError {
         /// The spacing.
         voxel: Real,
     },
+    /// A cloud that keeps too many points at the spacing.
+    #[error(
+        "the {which} cloud keeps {points} points at a {voxel} spacing, more than {MAX_THINNED}: give a larger --voxel"
+    )]
+    TooManyPoints {
+        /// "moving" or "fixed".
+        which: &'static str,
+        /// Points after thinning.
+        points: usize,
+        /// The spacing.
+        voxel: Real,
+    },
+    /// A cloud without extent (empty, one point, or not finite).
+    #[error("the {which} cloud has no extent (no points, one point, or coordinates that are not finite)")]
+    NoExtent {
+        /// "moving" or "fixed".
+        which: &'static str,
+    },
+    /// An option that cannot be right.
+    #[error(transparent)]
+    Param(#[from] ParamError),
 }
 
 /// A cloud thinned, with its normals, tree and descriptors.
@@ -102,6 +180,9 @@ fn describe(points: &[Point3], voxel: Real, which: &'static str) -> Result<Descr
     let points = voxel_thin(points, voxel);
     if points.len() < 30 {
         return Err(GlobalError::TooFewPoints { which, points: points.len(), voxel });
+    }
+    if points.len() > MAX_THINNED {
+        return Err(GlobalError::TooManyPoints { which, points: points.len(), voxel });
     }
     let tree = PointTree::new(&points);
     let normals = outward_normals(&points, &tree, 2.0 * voxel);

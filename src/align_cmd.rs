@@ -1,0 +1,93 @@
+//! `scanrig align A B`: cloud A moved onto cloud B with no pose to start from — another pass of the
+//! object, another tool's scan — by the library's global registration
+//! ([`process::register::global`]). An ambiguous or unsupported match is refused (exit ≠ 0) unless
+//! `--force`: a wrong alignment that exits 0 is the worst outcome of this command.
+
+use crate::cli::AlignArgs;
+use crate::json_outputs::Aligned;
+use anyhow::{Context, Result, bail};
+use process::register::global::{GlobalParams, align_global};
+use std::io::Write;
+
+pub fn run(args: &AlignArgs) -> Result<()> {
+    crate::outputs::plan(
+        &[("A", &args.moving), ("B", &args.fixed)],
+        &[("--out", args.out.as_deref()), ("--pose", args.pose.as_deref())],
+    )?;
+    // Options checked before a file is read.
+    GlobalParams::check_voxel(args.voxel)?;
+    let moving = crate::inputs::read_cloud(&args.moving)?;
+    let fixed = crate::inputs::read_cloud(&args.fixed)?;
+    let params = GlobalParams::for_clouds(&moving.positions, &fixed.positions, args.voxel, args.seed)
+        .with_context(|| format!("aligning {} onto {}", args.moving.display(), args.fixed.display()))?;
+    crate::progress::note(format!(
+        "aligning {} ({} points) onto {} ({} points) at a {:.3} spacing …",
+        args.moving.display(),
+        moving.len(),
+        args.fixed.display(),
+        fixed.len(),
+        params.voxel
+    ));
+    let a = align_global(&moving.positions, &fixed.positions, &params)
+        .with_context(|| format!("aligning {} onto {}", args.moving.display(), args.fixed.display()))?;
+    if !a.aligned {
+        if !args.force {
+            bail!(
+                "{} could not be aligned onto {}: {} (overlap {:.0} %, {} of {} matches agree); nothing written — \
+                 --force writes this best guess anyway",
+                args.moving.display(),
+                args.fixed.display(),
+                a.why,
+                100.0 * a.overlap,
+                a.inliers,
+                a.matches
+            );
+        }
+        eprintln!("warning: not aligned ({}), written anyway as --force asks", a.why);
+    }
+    if let Some(out) = &args.out {
+        let mut moved = moving;
+        moved.positions.iter_mut().for_each(|p| *p = a.pose * *p);
+        if let Some(n) = moved.normals.as_mut() {
+            n.iter_mut().for_each(|n| *n = a.pose.rotation * *n);
+        }
+        rig::write_cloud(out, &moved, &crate::outputs::write_options_like(&args.fixed)?)?;
+    }
+    let matrix = a.pose.to_homogeneous();
+    let rows: [[f64; 4]; 4] = std::array::from_fn(|r| std::array::from_fn(|c| matrix[(r, c)]));
+    let json = Aligned { moving: &args.moving, fixed: &args.fixed, pose: rows, voxel: params.voxel, alignment: &a };
+    if let Some(path) = &args.pose {
+        rig::write_atomic(path, &serde_json::to_vec_pretty(&crate::outputs::versioned(&json))?)?;
+    }
+    let mut o = std::io::stdout().lock();
+    if args.json {
+        serde_json::to_writer_pretty(&mut o, &crate::outputs::versioned(&json))?;
+        writeln!(o)?;
+    } else {
+        let (axis, angle) = a.pose.rotation.axis_angle().map_or((rig::Vector3::z(), 0.0), |(ax, an)| (*ax, an));
+        writeln!(
+            o,
+            "{} → {}: {}; turned {:.2}° about ({:.3}, {:.3}, {:.3}), moved ({:.2}, {:.2}, {:.2}); overlap {:.0} %, RMS \
+             {:.3}, {} of {} matches agree, rival {:.2}",
+            args.moving.display(),
+            args.fixed.display(),
+            if a.aligned { "aligned" } else { "NOT aligned (forced)" },
+            angle.to_degrees(),
+            axis.x,
+            axis.y,
+            axis.z,
+            a.pose.translation.x,
+            a.pose.translation.y,
+            a.pose.translation.z,
+            100.0 * a.overlap,
+            a.rms,
+            a.inliers,
+            a.matches,
+            a.rival_share
+        )?;
+        if let Some(out) = &args.out {
+            writeln!(o, "  A moved into B's frame: {}", out.display())?;
+        }
+    }
+    Ok(())
+}
