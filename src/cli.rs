@@ -375,6 +375,11 @@ pub struct SimArgs {
     /// Capture program (default: structured light when the rig has a projector, else laser).
     #[arg(long, value_enum)]
     pub method: Option<SimMethod>,
+    /// Scan the object in this many passes, turned over between them as an operator would: pass 2
+    /// on its side, 3 upside down, 4 on its other side (up to 6); each pass the whole turntable
+    /// program, the truth of each pass's pose in truth/passes.json.
+    #[arg(long, default_value_t = 1)]
+    pub passes: u32,
     /// Output scan folder; a half-finished scan of the same settings there is resumed.
     #[arg(long, short, default_value = "scan-sim")]
     pub out: PathBuf,

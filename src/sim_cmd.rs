@@ -61,6 +61,12 @@ pub fn run(args: &SimArgs) -> Result<()> {
         }
         _ => {}
     }
+    if !(1..=rig::scan_folder::MAX_PASSES).contains(&args.passes) {
+        bail!("--passes must be 1 to {}, got {}", rig::scan_folder::MAX_PASSES, args.passes);
+    }
+    if args.passes > 1 && (args.board.is_some() || args.layout.is_some()) {
+        bail!("--passes scans an object several times; it does not go with --board or --layout");
+    }
     if let Some(b) = args.board {
         let board = match b.charuco {
             None => sim::Board::chessboard(b.cols, b.rows, args.square),
@@ -76,10 +82,18 @@ pub fn run(args: &SimArgs) -> Result<()> {
     let size = args.world.size.unwrap_or(cfg.scene.object_size_mm);
     let offset = rig::Vector3::from(args.offset.unwrap_or([0.0; 3]));
     let (object, albedo) = object_on_platter(&cfg, args.world.mesh.as_deref(), size, args.world.up, offset)?;
-    let scene = Scene::on_turntable(&cfg, &object, albedo);
+    // Each pass the object as it lies then: turned over, standing on the platter again.
+    let turned: Vec<(rig::TriMesh, rig::Isometry3)> = (2..=args.passes).map(|p| sim::turned_over(&object, p)).collect();
+    let scenes: Vec<Scene> = std::iter::once(Scene::on_turntable(&cfg, &object, albedo.clone()))
+        .chain(turned.iter().map(|(m, _)| Scene::on_turntable(&cfg, m, albedo.clone())))
+        .collect();
+    let motions = std::iter::once(rig::Isometry3::identity()).chain(turned.iter().map(|t| t.1));
+    let passes: Vec<sim::SimPass> =
+        scenes.iter().zip(motions).map(|(scene, motion)| sim::SimPass { scene, motion }).collect();
     let opts = sim::ScanOptions { method, seed: args.world.seed, truth: !args.no_truth };
     eprintln!(
-        "simulating {} views of {} ({} triangles) at {}×{} into {}",
+        "simulating {}{} views of {} ({} triangles) at {}×{} into {}",
+        if args.passes > 1 { format!("{} passes of ", args.passes) } else { String::new() },
         cfg.scan.views,
         args.world.mesh.as_ref().map(|p| p.display().to_string()).unwrap_or_else(|| "the built-in vase".into()),
         object.faces.len(),
@@ -90,7 +104,7 @@ pub fn run(args: &SimArgs) -> Result<()> {
     // The scan folder is the run's own: a second run resumes it, reading and rewriting its manifest.
     rig::run_files::workspace(&args.out)?;
     let mut progress = crate::progress::Progress::new();
-    let report = sim::simulate_scan(&cfg, &scene, Some(&object), opts, &args.out, |done, total| {
+    let report = sim::simulate_passes(&cfg, &passes, Some(&object), opts, &args.out, |done, total| {
         progress.update("simulate", done, total)
     })
     .with_context(|| format!("simulating into {}", args.out.display()))?;

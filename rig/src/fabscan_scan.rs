@@ -262,6 +262,7 @@ pub fn manifest(
                 .collect(),
             complete: true,
             held: false,
+            pass: 1,
         };
         views.push((view.angle_deg, view));
     }

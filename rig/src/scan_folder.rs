@@ -18,7 +18,14 @@
 //! - `views`: one entry per turntable step or board pose, each with `angle_deg` (turntable angle, counter-
 //!   clockwise seen from above), `frames` (relative `file` and the [`Pattern`] it shows) and `complete`
 //!   (false until every frame of the view is on disk, so an interrupted scan resumes at the first
-//!   incomplete view).
+//!   incomplete view), and `pass` (absent for 1: see below).
+//!
+//! **Passes.** An object scanned, turned over (on its side, upside down) and scanned again is one scan
+//! with several passes: each view says which (`pass`, counted from 1, absent for the first), the
+//! passes' views follow each other (all of pass 1, then all of pass 2), each pass its own turntable
+//! program, and view numbers run on across passes (`frames/view_036` is pass 2's first view of a
+//! 36-view program). `process` registers each pass from its turntable poses, then aligns the passes
+//! with each other by their shape (the object was placed by hand: no pose is known).
 //!
 //! Completing a view appends its index to `scan.progress` (a few bytes, flushed to disk) instead of
 //! rewriting `scan.json`, whose size grows with the views: rewriting it after each of n views cost
@@ -96,7 +103,21 @@ pub struct View {
     /// angle says nothing about its pose (absent, false, for turntable views).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub held: bool,
+    /// The pass this view belongs to, from 1 (see the module doc; absent in the file for pass 1).
+    #[serde(default = "first_pass", skip_serializing_if = "is_first_pass")]
+    pub pass: u32,
 }
+
+fn first_pass() -> u32 {
+    1
+}
+
+fn is_first_pass(p: &u32) -> bool {
+    *p == 1
+}
+
+/// Most passes a scan may hold: an object has six sides to lie on.
+pub const MAX_PASSES: u32 = 6;
 
 /// The scan manifest (see the module doc for the file).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -167,9 +188,30 @@ impl Manifest {
                         .collect(),
                     complete: false,
                     held: false,
+                    pass: 1,
                 })
                 .collect(),
         }
+    }
+
+    /// Passes in the scan (1 for a scan without a `pass` field).
+    pub fn passes(&self) -> u32 {
+        self.views.iter().map(|v| v.pass).max().unwrap_or(1)
+    }
+
+    /// `more` views of a further pass appended: numbered on from the last view, each with the same
+    /// frames (patterns) as `fresh` lays out, for pass `pass`.
+    pub fn append_pass(&mut self, pass: u32, angles: &[f64], patterns: &[crate::Pattern]) {
+        let first = self.views.len();
+        let fresh = Manifest::fresh(self.method, &self.source, self.seed, angles, patterns);
+        self.views.extend(fresh.views.into_iter().enumerate().map(|(k, mut v)| {
+            let n = first + k;
+            for (f, frame) in v.frames.iter_mut().enumerate() {
+                frame.file = ScanLayout::frame(n, f, &frame.pattern);
+            }
+            v.pass = pass;
+            v
+        }));
     }
 
     /// Parses manifest JSON.
@@ -187,6 +229,19 @@ impl Manifest {
         if !relative(&m.rig) {
             let msg = format!("rig file `{}` must be a relative path inside the scan folder", m.rig);
             return Err(ParseError::new(Location::Field("rig".into()), Problem::Invalid(msg)));
+        }
+        // Passes from 1, each after the one before, none skipped: a view of pass 3 before pass 2's, or
+        // a pass 0, is a manifest no capture writes.
+        let mut last = 1;
+        for (i, v) in m.views.iter().enumerate() {
+            if !(v.pass == last || v.pass == last + 1) || v.pass > MAX_PASSES {
+                let msg = format!(
+                    "pass {} follows pass {last}: passes count from 1 up to {MAX_PASSES}, each after the one before",
+                    v.pass
+                );
+                return Err(ParseError::new(Location::Field(format!("views[{i}].pass")), Problem::Invalid(msg)));
+            }
+            last = v.pass;
         }
         for (i, v) in m.views.iter().enumerate() {
             let max = crate::limits::MAX_ABS_ANGLE_DEG;

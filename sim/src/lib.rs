@@ -48,10 +48,10 @@ pub use board::{Board, BoardPoses, Cover, simulate_board};
 pub use config::SimConfig;
 pub use geometry::{ViewGeometry, pixel_rays, view_geometry};
 pub use object::{
-    UpAxis, fluted_vase, fluted_vase_tessellated, object_on_platter, place_on_platter, validate_placement,
+    UpAxis, fluted_vase, fluted_vase_tessellated, object_on_platter, place_on_platter, turned_over, validate_placement,
 };
 pub use render::render_frame;
-pub use scan::{ScanOptions, ScanReport, simulate_scan};
+pub use scan::{ScanOptions, ScanReport, SimPass, simulate_passes, simulate_scan};
 pub use scene::{Albedo, Markers, Mount, Part, PartKind, Scene};
 pub use surface::{Disc, MeshSurface, Rectangle, Sphere, Surface};
 

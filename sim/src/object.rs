@@ -34,6 +34,38 @@ pub fn place_on_platter(mesh: &PolyMesh, size_mm: Real, up: UpAxis, offset: Vect
     tri
 }
 
+/// How the object lies in pass `pass` (from 1) of a scan of several passes, as an operator turns it
+/// over between passes: 1 as placed, 2 on its side (a quarter turn about x), 3 upside down (a half
+/// turn about x), 4 on its other side (a quarter turn about y), 5 and 6 the remaining sides. The
+/// turned object stands on the platter again (bounding box's bottom at z = 0, centred on the axis).
+/// Returns the turned mesh and the motion that took the first pass's object there — the truth a
+/// test of pass alignment needs.
+pub fn turned_over(object: &TriMesh, pass: u32) -> (TriMesh, rig::math::Isometry3) {
+    use rig::math::{Isometry3, Translation3, UnitQuaternion};
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let turn = match pass {
+        2 => UnitQuaternion::from_axis_angle(&Vector3::x_axis(), FRAC_PI_2),
+        3 => UnitQuaternion::from_axis_angle(&Vector3::x_axis(), PI),
+        4 => UnitQuaternion::from_axis_angle(&Vector3::y_axis(), FRAC_PI_2),
+        5 => UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -FRAC_PI_2),
+        6 => UnitQuaternion::from_axis_angle(&Vector3::y_axis(), -FRAC_PI_2),
+        _ => UnitQuaternion::identity(),
+    };
+    let mut tri = object.clone();
+    for v in &mut tri.vertices {
+        *v = turn * *v;
+    }
+    let shift = match tri.bounding_box() {
+        Some(b) => Vector3::new(-(b.min.x + b.max.x) / 2.0, -(b.min.y + b.max.y) / 2.0, -b.min.z),
+        None => Vector3::zeros(),
+    };
+    for v in &mut tri.vertices {
+        *v += shift;
+    }
+    tri.normals = None;
+    (tri, Isometry3::from_parts(Translation3::from(shift), turn))
+}
+
 /// The largest object, as a multiple of the platter's diameter: bigger is no object a turntable holds.
 pub const MAX_SIZE_PLATTERS: Real = 4.0;
 
@@ -158,6 +190,19 @@ mod tests {
         assert!(vol > 0.0);
         // V − E + F = 2 for a closed sphere-like surface: E = 3F/2.
         assert_eq!(m.vertices.len() as i64 - (3 * m.faces.len() / 2) as i64 + m.faces.len() as i64, 2);
+    }
+
+    #[test]
+    fn a_turned_over_object_stands_on_the_platter_and_its_motion_says_how() {
+        let vase = fluted_vase(100.0);
+        for pass in 1..=6 {
+            let (turned, motion) = turned_over(&vase, pass);
+            let b = turned.bounding_box().unwrap();
+            assert!(b.min.z.abs() < 1e-9 && (b.min.x + b.max.x).abs() < 1e-9, "pass {pass}: {b:?}");
+            for (a, t) in vase.vertices.iter().zip(&turned.vertices).step_by(97) {
+                assert!((motion * a - t).norm() < 1e-9, "pass {pass}");
+            }
+        }
     }
 
     #[test]

@@ -213,6 +213,15 @@ pub struct ScanOptions {
     pub truth: bool,
 }
 
+/// One pass of a scan: the object as it lies on the platter this time, and the motion that took
+/// the first pass's object there (identity for the first).
+pub struct SimPass<'a> {
+    /// The scene with the object as it lies.
+    pub scene: &'a Scene,
+    /// The motion from the first pass's object frame to this pass's.
+    pub motion: Isometry3,
+}
+
 /// Simulates a turntable scan into `out`: frames, manifest (each completed view journalled), the
 /// rig, and truth. A folder holding the same scan half done is resumed at its first incomplete view.
 /// `progress(done, total)` is called after every view.
@@ -222,18 +231,51 @@ pub fn simulate_scan(
     object: Option<&TriMesh>,
     opts: ScanOptions,
     out: &Path,
+    progress: impl FnMut(usize, usize),
+) -> Result<ScanReport, Error> {
+    simulate_passes(cfg, &[SimPass { scene, motion: Isometry3::identity() }], object, opts, out, progress)
+}
+
+/// [`simulate_scan`] of an object scanned in several passes, turned over between them
+/// ([`crate::object::turned_over`]): each pass the config's turntable program, its views numbered on
+/// (`rig::scan_folder`'s passes). `object` is the first pass's (the truth's object frame), and
+/// `truth/passes.json` records each pass's motion from it.
+pub fn simulate_passes(
+    cfg: &SimConfig,
+    passes: &[SimPass],
+    object: Option<&TriMesh>,
+    opts: ScanOptions,
+    out: &Path,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<ScanReport, Error> {
     let start = Instant::now();
     let patterns = program(cfg, opts.method)?;
-    let views = cfg.scan.views as usize;
-    let step = 360.0 / views as Real;
+    let per_pass = cfg.scan.views as usize;
+    let views = per_pass * passes.len();
+    let step = 360.0 / per_pass as Real;
     let mkdir = |p: &Path| std::fs::create_dir_all(p).map_err(|e| Error::File(rig::Error::io(p, e)));
     mkdir(out)?;
-    let angles: Vec<Real> = (0..views).map(|v| v as Real * step).collect();
-    let fresh = fresh_manifest(cfg, opts.method, opts.seed, &angles, &patterns);
+    let angles: Vec<Real> = (0..per_pass).map(|v| v as Real * step).collect();
+    let mut fresh = fresh_manifest(cfg, opts.method, opts.seed, &angles, &patterns);
+    for pass in 2..=passes.len() as u32 {
+        fresh.append_pass(pass, &angles, &patterns);
+    }
+    if cfg.frames.jpeg_quality > 0 {
+        for f in fresh.views.iter_mut().flat_map(|v| v.frames.iter_mut()) {
+            if let Some(stem) = f.file.strip_suffix(".png") {
+                f.file = format!("{stem}.jpg");
+            }
+        }
+    }
     let mut manifest = match Manifest::read(out) {
-        Ok(old) if old.views.len() == views && old.seed == fresh.seed && old.method == fresh.method => old,
+        Ok(old)
+            if old.views.len() == views
+                && old.seed == fresh.seed
+                && old.method == fresh.method
+                && old.passes() == fresh.passes() =>
+        {
+            old
+        }
         Ok(_) => {
             return Err(Error::Setup(format!(
                 "{} already holds a different scan; choose another output folder or remove it",
@@ -242,13 +284,18 @@ pub fn simulate_scan(
         }
         Err(_) => {
             scan_rig(cfg).write(&out.join("rig.toml"))?;
-            if let (Some(m), true) = (object, opts.truth) {
+            if opts.truth {
                 mkdir(&out.join("truth"))?;
-                rig::ply::write_mesh(
-                    &out.join("truth/object.ply"),
-                    &m.to_poly(),
-                    &rig::ply::WriteOptions::default().with_units("mm"),
-                )?;
+                if let Some(m) = object {
+                    rig::ply::write_mesh(
+                        &out.join("truth/object.ply"),
+                        &m.to_poly(),
+                        &rig::ply::WriteOptions::default().with_units("mm"),
+                    )?;
+                }
+                if passes.len() > 1 {
+                    write_passes_truth(&out.join(PASSES_TRUTH), passes, per_pass)?;
+                }
             }
             fresh.write(out)?;
             fresh
@@ -263,7 +310,7 @@ pub fn simulate_scan(
         }
         let t0 = Instant::now();
         let pose = view_pose(cfg, manifest.views[v].angle_deg);
-        let g = view_geometry(scene, cfg, &rays, &pose);
+        let g = view_geometry(passes[v / per_pass].scene, cfg, &rays, &pose);
         let t1 = Instant::now();
         let frames = manifest.views[v].frames.clone();
         write_view(out, cfg, &g, &lights, &frames, opts, v, &pose)?;
@@ -273,4 +320,27 @@ pub fn simulate_scan(
     }
     manifest.write(out)?;
     Ok(report.finish(start))
+}
+
+/// Where a simulated scan of several passes records each pass's motion (inside the scan folder).
+pub const PASSES_TRUTH: &str = "truth/passes.json";
+
+/// `truth/passes.json`: per pass (from 1) its views and `turntable_from_object`, the row-major 4 × 4
+/// motion taking the first pass's object frame (`truth/object.ply`'s) into this pass's turntable frame.
+fn write_passes_truth(path: &Path, passes: &[SimPass], per_pass: usize) -> Result<(), Error> {
+    let list: Vec<serde_json::Value> = passes
+        .iter()
+        .enumerate()
+        .map(|(p, pass)| {
+            let m = pass.motion.to_homogeneous();
+            let rows: Vec<Vec<Real>> = (0..4).map(|r| (0..4).map(|c| m[(r, c)]).collect()).collect();
+            serde_json::json!({
+                "pass": p + 1,
+                "views": [p * per_pass, (p + 1) * per_pass - 1],
+                "turntable_from_object": rows,
+            })
+        })
+        .collect();
+    let json = serde_json::to_vec_pretty(&serde_json::json!({ "passes": list })).expect("JSON serialises");
+    Ok(rig::write_atomic(path, &json)?)
 }

@@ -293,6 +293,7 @@ fn option_cases() -> Vec<Case> {
     // A sphere onto itself is refused as ambiguous (naming the files) unless forced; every spacing
     // is refused by name or runs.
     each(&mut cases, "align cloud.ply hardlink.ply -o out.ply --force --voxel {v}", "--voxel", &["out.ply"]);
+    each(&mut cases, "sim --out passes --views 2 --resolution 64x48 --passes {v}", "--passes", &["passes"]);
     for o in ["--depth", "--smoothing-cells", "--memory-budget", "--trim"] {
         each(&mut cases, &format!("reconstruct cloud.ply -o out.ply {o} {{v}}"), o, &["out.ply"]);
     }

@@ -10,6 +10,7 @@ mod frame_sequences;
 mod hostile;
 mod independent_readers;
 mod pages;
+mod passes;
 mod python_bindings;
 mod run;
 mod scanner_files;

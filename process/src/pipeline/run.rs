@@ -93,7 +93,17 @@ pub fn process_scan(
 
     // The scan's steps.
     let crop = CropParams { radius_mm: params.crop.radius_mm.or(rig.platter_radius_mm), ..params.crop };
-    let scx = ScanCx { o: &o, rig: &rig, method: manifest.method, params };
+    let pass_of = manifest.views.iter().map(|v| v.pass).collect();
+    let scx = ScanCx { o: &o, rig: &rig, method: manifest.method, params, pass_of };
+    if scx.passes() && params.until < Stage::Register {
+        report.warnings.push(format!(
+            "{}: this scan has {} passes, each in its own turntable frame until register aligns them: --until {} \
+             leaves them apart",
+            layout::MERGED,
+            manifest.passes(),
+            params.until.name()
+        ));
+    }
     let result = scan_steps(&scx, &mut report, outputs, &crop, &mut progress);
     // Clouds still being written are finished before the records and the report say what exists;
     // the report is written whatever happened, so what did finish is described.
@@ -390,5 +400,10 @@ pub fn register_processed(
     // Within the working volume the merge of `process` applies (a laser scan's capped at its top).
     let top = (manifest.method == Method::Laser).then(TopParams::default);
     let crop = super::volume::working_volume(&views, Some(&axis), &crop, top.as_ref()).crop(&crop);
-    stages::register(&views, &axis, &crop, params).map_err(|source| Error::Stage { stage: Stage::Register, source })
+    let pass_of = |v: usize| manifest.views.get(v).map_or(1, |view| view.pass);
+    match manifest.passes() {
+        1 => stages::register(&views, &axis, &crop, params),
+        _ => stages::register_passes(&views, &pass_of, &axis, &crop, params),
+    }
+    .map_err(|source| Error::Stage { stage: Stage::Register, source })
 }

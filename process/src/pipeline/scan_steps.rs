@@ -24,6 +24,15 @@ pub(super) struct ScanCx<'a> {
     pub rig: &'a Rig,
     pub method: Method,
     pub params: &'a ProcessParams,
+    /// Each view's pass (from 1), by view number: a scan of several passes is aligned pass to pass.
+    pub pass_of: Vec<u32>,
+}
+
+impl ScanCx<'_> {
+    /// Whether the scan holds several passes.
+    pub fn passes(&self) -> bool {
+        self.pass_of.iter().any(|&p| p > 1)
+    }
 }
 
 /// An output handed to the next step: its name and content hash, and what it holds where it was
@@ -143,11 +152,13 @@ pub(super) fn register_step(
     cloud: &mut Handed<PointCloud>,
 ) -> Result<bool, Error> {
     let (o, rig, method, params) = (cx.o, cx.rig, cx.method, cx.params);
-    // A laser scan registers laser against laser: it needs two lasers' lines.
-    let enough = match method {
-        Method::Laser => outputs.iter().filter_map(|o| o.laser).max().is_some_and(|k| k >= 1),
-        _ => outputs.len() >= 2,
-    };
+    // A laser scan registers laser against laser: it needs two lasers' lines. Passes are aligned
+    // whatever each holds.
+    let enough = cx.passes()
+        || match method {
+            Method::Laser => outputs.iter().filter_map(|o| o.laser).max().is_some_and(|k| k >= 1),
+            _ => outputs.len() >= 2,
+        };
     let axis = match (method, rig.turntable.as_ref()) {
         (_, Some(axis)) if enough => axis,
         (Method::StructuredLight, Some(_)) => {
@@ -167,7 +178,11 @@ pub(super) fn register_step(
             return Ok(false);
         }
     };
-    let fp = grid_inputs(stages::register_fingerprint(crop, &params.register, rig.turntable.as_ref()), outputs);
+    let mut fp = stages::register_fingerprint(crop, &params.register, rig.turntable.as_ref());
+    if cx.passes() {
+        fp.params["passes"] = serde_json::json!(cx.pass_of);
+    }
+    let fp = grid_inputs(fp, outputs);
     let check = |rr: &stages::RegisterReport| {
         rr.check(&params.register.tolerance, params.force)
             .map_err(|source| Error::Stage { stage: Stage::Register, source })
@@ -177,8 +192,13 @@ pub(super) fn register_step(
         // Registration starts from the grids; the merged cloud is on disk.
         drop(cloud.held.take());
         load_grids(o, outputs)?;
-        let (registered, poses, rr) = stages::register(&view_grids(outputs), axis, crop, &params.register)
-            .map_err(|source| Error::Stage { stage: Stage::Register, source })?;
+        let grids = view_grids(outputs);
+        let pass_of = |v: usize| cx.pass_of.get(v).copied().unwrap_or(1);
+        let (registered, poses, rr) = match cx.passes() {
+            true => stages::register_passes(&grids, &pass_of, axis, crop, &params.register),
+            false => stages::register(&grids, axis, crop, &params.register),
+        }
+        .map_err(|source| Error::Stage { stage: Stage::Register, source })?;
         // Checked before anything is written: an unforced implausible registration leaves the
         // folder as the merge left it.
         warnings = check(&rr)?;
@@ -242,6 +262,10 @@ pub(super) fn close_step(
         }
         (None, _) => return Ok(fused),
     };
+    if cx.passes() {
+        report.skipped.push("close: the passes together measured the base and top; nothing is capped".into());
+        return Ok(fused);
+    }
     let fp = stages::close_fingerprint(cp).input(fused.name, fused.hash);
     let step = o.step(&[layout::CLOSED], fp, Scope::Scan, |fp| {
         let input = fused.take(o)?;
@@ -269,10 +293,11 @@ pub(super) fn mesh_step(
     let mp = stages::MeshParams {
         reconstruct: params.reconstruct,
         finish: params.finish,
-        // The platter plane, where the base is cut: object z = 0 on a turntable.
-        platter_z: on_turntable.then_some(0.0),
+        // The platter plane, where the base is cut: object z = 0 on a turntable — unless another pass
+        // measured the base (the object turned over).
+        platter_z: (on_turntable && !cx.passes()).then_some(0.0),
         // The working volume's top (the object's, as the merge found it): no surface above it.
-        top_z: crop.max_height_mm.filter(|_| on_turntable),
+        top_z: crop.max_height_mm.filter(|_| on_turntable && !cx.passes()),
         force: params.force,
     };
     let fp = stages::mesh_fingerprint(&mp).input(input.name, input.hash);

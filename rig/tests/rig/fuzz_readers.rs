@@ -145,6 +145,7 @@ cy_px = 240.0\ndistortion = [0.1, 0.0, 0.0, 0.0, 0.0]\n[[lasers]]\nname = \"l\"\
                 .collect(),
             complete: true,
             held: false,
+            pass: 1,
         }],
     };
     out.push(serde_json::to_vec_pretty(&manifest).unwrap());

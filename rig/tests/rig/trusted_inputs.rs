@@ -288,6 +288,26 @@ fn a_manifest_angle_no_turntable_has_is_refused() {
     }
 }
 
+/// Passes: a further pass's views number on and say their pass; a pass that skips one, comes back
+/// or is 0 is refused naming the view.
+#[test]
+fn a_manifest_of_passes_numbers_on_and_refuses_passes_out_of_order() {
+    let patterns = [rig::Pattern::White, rig::Pattern::Black];
+    let mut m = rig::Manifest::fresh(rig::Method::StructuredLight, "test", None, &[0.0, 90.0], &patterns);
+    m.append_pass(2, &[0.0, 90.0], &patterns);
+    assert_eq!(m.passes(), 2);
+    assert_eq!(m.views[2].frames[1].file, "frames/view_002/01_black.png");
+    let json = serde_json::to_string(&m).unwrap();
+    let back = rig::Manifest::from_json(json.as_bytes()).unwrap();
+    assert_eq!(back.views.iter().map(|v| v.pass).collect::<Vec<_>>(), [1, 1, 2, 2]);
+    for (view, pass) in [(2, 3), (0, 0), (3, 1), (2, 7)] {
+        let mut bad = m.clone();
+        bad.views[view].pass = pass;
+        let e = rig::Manifest::from_json(serde_json::to_string(&bad).unwrap().as_bytes()).unwrap_err().to_string();
+        assert!(e.contains(".pass") && e.contains("passes count from 1"), "view {view} pass {pass}: {e}");
+    }
+}
+
 /// OFF's per-vertex extras and face colours are named, not dropped in silence.
 #[test]
 fn off_extras_that_are_not_kept_are_named() {

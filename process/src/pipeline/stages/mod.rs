@@ -7,6 +7,7 @@
 mod fuse_stage;
 mod merge_stage;
 mod mesh_stage;
+mod passes_stage;
 mod register_stage;
 mod remesh_stage;
 mod view_stages;
@@ -14,6 +15,7 @@ mod view_stages;
 pub use fuse_stage::*;
 pub use merge_stage::*;
 pub use mesh_stage::*;
+pub use passes_stage::*;
 pub use register_stage::*;
 pub use remesh_stage::*;
 pub use view_stages::*;
@@ -110,6 +112,9 @@ pub enum StageError {
     /// Pairwise registration failed.
     #[error("registration: {0}")]
     Icp(#[from] IcpError),
+    /// Passes that cannot be aligned by their shape.
+    #[error("aligning the passes: {0}")]
+    Global(#[from] crate::register::global::GlobalError),
     /// A result that cannot be right: refused unless forced.
     #[error("{what}; {hint}")]
     Implausible {

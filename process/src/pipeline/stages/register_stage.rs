@@ -14,6 +14,9 @@ use rig::{PointCloud, RangeGrid, TurntableAxis};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
 
+/// What registration returns: the cloud, every view's pose and the report.
+pub type Registered = (PointCloud, Vec<ViewPose>, RegisterReport);
+
 /// What registration did.
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct RegisterReport {
@@ -36,6 +39,10 @@ pub struct RegisterReport {
     /// one by one).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lasers: Option<LasersReport>,
+    /// A scan of several passes: how each pass was placed in the first's frame
+    /// ([`super::register_passes`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub passes: Option<Vec<super::PassAlignment>>,
 }
 
 impl RegisterReport {
@@ -43,7 +50,21 @@ impl RegisterReport {
     /// per refused view.
     /// A laser scan's lasers that disagree by more than the lines' noise are warnings too.
     pub fn check(&self, tolerance: &Tolerance, force: bool) -> Result<Vec<String>, StageError> {
-        let disagreements = self.lasers.iter().flat_map(LasersReport::disagreements);
+        // A pass placed by a match that is not trusted: the merged object would be two objects.
+        let mut unaligned = Vec::new();
+        for a in self.passes.iter().flatten().filter(|a| !a.aligned) {
+            let what = format!("pass {} could not be aligned with pass 1 by its shape: {}", a.pass, a.why);
+            if !force {
+                return Err(StageError::Implausible {
+                    what,
+                    hint: "the passes may overlap too little (let each pass show much of what the first saw), or the \
+                           object look the same turned (a sphere, a cylinder); --force merges this best guess anyway"
+                        .into(),
+                });
+            }
+            unaligned.push(format!("{what}: merged at the best guess (--force)"));
+        }
+        let disagreements = unaligned.into_iter().chain(self.lasers.iter().flat_map(LasersReport::disagreements));
         let Some(first) = self.refused.first() else { return Ok(disagreements.collect()) };
         let limit = format!(
             "beyond the {}° and {} mm a turntable can be off (--max-correction-deg, --max-correction-mm)",
@@ -75,7 +96,7 @@ pub fn register(
     axis: &TurntableAxis,
     crop: &CropParams,
     params: &RegisterParams,
-) -> Result<(PointCloud, Vec<ViewPose>, RegisterReport), StageError> {
+) -> Result<Registered, StageError> {
     params.validate()?;
     crop.validate()?;
     if views.iter().any(|v| matches!(v.data, ViewData::Sparse(_))) {
@@ -109,6 +130,7 @@ pub fn register(
         points: cloud.len(),
         refinement,
         lasers: None,
+        passes: None,
     };
     Ok((cloud, poses, report))
 }
@@ -123,7 +145,7 @@ pub fn register_lasers(
     axis: &TurntableAxis,
     crop: &CropParams,
     params: &RegisterParams,
-) -> Result<(PointCloud, Vec<ViewPose>, RegisterReport), StageError> {
+) -> Result<Registered, StageError> {
     let lasers = views.iter().map(|v| v.laser.unwrap_or(0) + 1).max().unwrap_or(0);
     let turntable: Vec<Isometry3> = views.iter().map(|v| axis.object_from_camera(v.angle_deg)).collect();
     let clouds: Vec<PointCloud> = (0..lasers)
@@ -192,6 +214,7 @@ pub fn register_lasers(
         refused,
         refinement: MultiViewReport::default(),
         lasers: Some(lr),
+        passes: None,
     };
     Ok((cloud, view_poses, report))
 }

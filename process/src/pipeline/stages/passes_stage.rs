@@ -1,0 +1,212 @@
+//! Several passes of one object (issue 40): the object scanned, turned over by hand (on its side,
+//! upside down) and scanned again. Within a pass the turntable places the views and registration
+//! refines them ([`super::register`]); between passes nothing is known — the operator put the object
+//! down anew — so each further pass is aligned to the first by its shape
+//! ([`crate::register::global`]: local descriptors, a robust search, then ICP), refined by ICP on the
+//! full clouds, and merged into the first pass's object frame. A pass whose alignment is not trusted
+//! (ambiguous, too little overlap) is a result that cannot be right: [`RegisterReport::check`]
+//! refuses it unless forced.
+
+use super::StageError;
+use super::merge_stage::merge;
+use super::register_stage::{RegisterReport, Registered, register};
+use crate::merge::CropParams;
+use crate::merge::views::{ViewGrid, turntable_pose};
+use crate::register::global::{GlobalAlignment, GlobalParams, align_global};
+use crate::register::icp::{IcpParams, IcpTarget, icp};
+use crate::register::register_scan::{RegisterParams, ViewPose};
+use rig::math::{Isometry3, Real};
+use rig::{PointCloud, TurntableAxis};
+use serde::{Deserialize, Serialize};
+
+/// How a pass was placed in the first pass's object frame.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct PassAlignment {
+    /// The pass (from 1).
+    pub pass: u32,
+    /// Its views.
+    pub views: usize,
+    /// Its points, registered within the pass.
+    pub points: usize,
+    /// The motion from this pass's turntable frame into the first pass's, row-major 4 × 4.
+    pub first_from_pass: [[Real; 4]; 4],
+    /// Whether the alignment is trusted (see `why` otherwise).
+    pub aligned: bool,
+    /// Why not, in words (empty when aligned).
+    pub why: String,
+    /// Share of the pass's thinned cloud that lands on the first pass's.
+    pub overlap: Real,
+    /// RMS distance of those points (mm).
+    pub rms_mm: Real,
+    /// Descriptor matches and those agreeing with the motion.
+    pub matches: usize,
+    /// Matches agreeing with the motion.
+    pub inliers: usize,
+    /// The best other motion's overlap as a share of this one's (near 1: ambiguous).
+    pub rival_share: Real,
+    /// How far the fine ICP moved the search's result (degrees, mm at the pass's centroid).
+    pub refine_deg: Real,
+    /// The same, in mm.
+    pub refine_mm: Real,
+}
+
+impl PassAlignment {
+    /// The motion as an isometry.
+    pub fn motion(&self) -> Isometry3 {
+        let m = nalgebra::Matrix4::<Real>::from_fn(|r, c| self.first_from_pass[r][c]);
+        nalgebra::try_convert(m).unwrap_or_else(Isometry3::identity)
+    }
+}
+
+fn rows(m: &Isometry3) -> [[Real; 4]; 4] {
+    let h = m.to_homogeneous();
+    std::array::from_fn(|r| std::array::from_fn(|c| h[(r, c)]))
+}
+
+/// One pass on its own: registered from its turntable poses where it can be (two views, or two
+/// lasers' lines), else merged as the turntable placed it.
+fn one_pass(
+    views: &[ViewGrid],
+    axis: &TurntableAxis,
+    crop: &CropParams,
+    params: &RegisterParams,
+) -> Result<(PointCloud, Vec<ViewPose>, Option<RegisterReport>), StageError> {
+    let registrable = match views.iter().filter_map(|v| v.laser).max() {
+        Some(k) => k >= 1,
+        None => views.len() >= 2,
+    };
+    if registrable {
+        let (cloud, poses, report) = register(views, axis, crop, params)?;
+        return Ok((cloud, poses, Some(report)));
+    }
+    let (cloud, _) = merge(views, Some(axis), crop);
+    let poses = views
+        .iter()
+        .map(|v| ViewPose {
+            view: v.view,
+            laser: v.laser,
+            angle_deg: v.angle_deg,
+            object_from_camera: rows(&turntable_pose(Some(axis), v.angle_deg)),
+            rotation_change_deg: 0.0,
+            shift_mm: 0.0,
+            refused: false,
+        })
+        .collect();
+    Ok((cloud, poses, None))
+}
+
+/// Registers a scan of several passes: each pass within itself, then every further pass aligned to
+/// the first by its shape and refined by ICP, all in the first pass's object frame. `pass_of(view)`
+/// gives a view's pass (from 1). Returns the cloud, every view's pose (in that frame) and the report,
+/// whose `passes` says how each pass was placed.
+pub fn register_passes(
+    views: &[ViewGrid],
+    pass_of: &dyn Fn(usize) -> u32,
+    axis: &TurntableAxis,
+    crop: &CropParams,
+    params: &RegisterParams,
+) -> Result<Registered, StageError> {
+    // Each pass's registration checks the parameters too; a scan refused is refused before any pass.
+    (params.validate()?, crop.validate()?);
+    let mut passes: Vec<u32> = views.iter().map(|v| pass_of(v.view)).collect();
+    passes.sort_unstable();
+    passes.dedup();
+    let mut report = RegisterReport::default();
+    let mut alignments = Vec::new();
+    let mut all = PointCloud::default();
+    let mut all_poses = Vec::new();
+    let mut first: Option<(PointCloud, IcpTarget)> = None;
+    for &p in &passes {
+        let mine: Vec<ViewGrid> = views.iter().filter(|v| pass_of(v.view) == p).copied().collect();
+        let (mut cloud, mut poses, r) = one_pass(&mine, axis, crop, params)?;
+        if let Some(r) = r {
+            report.max_rotation_change_deg = report.max_rotation_change_deg.max(r.max_rotation_change_deg);
+            report.max_shift_mm = report.max_shift_mm.max(r.max_shift_mm);
+            report.sensor_normals += r.sensor_normals;
+            report.refused.extend(r.refused);
+            if first.is_none() {
+                report.refinement = r.refinement;
+                report.lasers = r.lasers;
+            }
+        }
+        let mut a = PassAlignment { pass: p, views: mine.len(), points: cloud.len(), ..Default::default() };
+        let motion = match &first {
+            None => {
+                a.aligned = true;
+                a.overlap = 1.0;
+                Isometry3::identity()
+            }
+            Some((reference, target)) => {
+                let g = align_global(
+                    &cloud.positions,
+                    &reference.positions,
+                    &GlobalParams::for_clouds(
+                        &cloud.positions,
+                        &reference.positions,
+                        None,
+                        GlobalParams::default().seed,
+                    )?,
+                )?;
+                let fine = refine(&cloud, target, &g);
+                let centre =
+                    rig::Aabb::of(&cloud.positions).map_or(rig::Point3::origin(), |b| nalgebra::center(&b.min, &b.max));
+                a.refine_deg = (g.pose.rotation.inverse() * fine.rotation).angle().to_degrees();
+                a.refine_mm = (fine * centre - g.pose * centre).norm();
+                let GlobalAlignment { aligned, why, matches, inliers, overlap, rms, rival_share, .. } = g;
+                (a.aligned, a.why, a.matches, a.inliers, a.overlap, a.rms_mm, a.rival_share) =
+                    (aligned, why, matches, inliers, overlap, rms, rival_share);
+                fine
+            }
+        };
+        a.first_from_pass = rows(&motion);
+        alignments.push(a);
+        for q in &mut cloud.positions {
+            *q = motion * *q;
+        }
+        for n in cloud.normals.iter_mut().flatten() {
+            *n = motion.rotation * *n;
+        }
+        for pose in &mut poses {
+            let m = nalgebra::Matrix4::<Real>::from_fn(|r, c| pose.object_from_camera[r][c]);
+            let placed: Isometry3 = nalgebra::try_convert(m).unwrap_or_else(Isometry3::identity);
+            pose.object_from_camera = rows(&(motion * placed));
+        }
+        all_poses.extend(poses);
+        if first.is_none() {
+            let normals = cloud.normals.clone().unwrap_or_default();
+            let target = IcpTarget::new(cloud.positions.clone(), normals, None);
+            first = Some((cloud.clone(), target));
+        }
+        append(&mut all, cloud);
+    }
+    report.views = views.len();
+    report.points = all.len();
+    report.passes = Some(alignments);
+    Ok((all, all_poses, report))
+}
+
+/// The search's motion refined by point-to-plane ICP on the full clouds (the search matched them
+/// thinned): from within a few spacings down to the scan's own noise. The search's motion where
+/// ICP cannot run (no normals).
+fn refine(cloud: &PointCloud, target: &IcpTarget, g: &GlobalAlignment) -> Isometry3 {
+    let Some(normals) = cloud.normals.as_ref().filter(|_| g.aligned && !target.is_empty()) else { return g.pose };
+    let params = IcpParams { start_distance: 5.0, min_distance: 0.5, ..IcpParams::default() };
+    icp(&cloud.positions, normals, target, &g.pose, &params).map_or(g.pose, |r| r.0)
+}
+
+/// `b` appended to `a`, keeping an attribute only where both have it.
+fn append(a: &mut PointCloud, b: PointCloud) {
+    let first = a.positions.is_empty();
+    fn join<T>(x: &mut Option<Vec<T>>, y: Option<Vec<T>>, first: bool) {
+        match (x.as_mut(), y) {
+            (Some(x), Some(y)) => x.extend(y),
+            (None, Some(y)) if first => *x = Some(y),
+            _ => *x = None,
+        }
+    }
+    a.positions.extend(b.positions);
+    join(&mut a.normals, b.normals, first);
+    join(&mut a.colors, b.colors, first);
+    join(&mut a.confidence, b.confidence, first);
+    join(&mut a.view_id, b.view_id, first);
+}
