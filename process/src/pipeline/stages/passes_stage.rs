@@ -107,7 +107,8 @@ pub fn register_passes(
     params: &RegisterParams,
 ) -> Result<Registered, StageError> {
     // Each pass's registration checks the parameters too; a scan refused is refused before any pass.
-    (params.validate()?, crop.validate()?);
+    params.validate()?;
+    crop.validate()?;
     let mut passes: Vec<u32> = views.iter().map(|v| pass_of(v.view)).collect();
     passes.sort_unstable();
     passes.dedup();
