@@ -192,6 +192,11 @@ pub enum ProjectorCommand {
 
 #[derive(clap::Args, Debug)]
 pub struct ScanArgs {
+    /// A further pass of the same object into the same folder, after turning it over (2 on its side,
+    /// and so on; the simulated rig turns it as `sim --passes` does): its views are appended, and
+    /// `process` aligns it with the first by its shape.
+    #[arg(long, default_value_t = 1)]
+    pub pass: u32,
     /// The scan folder to write (frames, scan.json, rig.toml).
     #[arg(long, short)]
     pub out: PathBuf,

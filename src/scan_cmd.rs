@@ -105,6 +105,7 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
         program.into_iter().chain(cfg.scan.texture.then_some(rig::Pattern::Texture)).collect();
     let mut plan = acquire::Plan::full_turn(method, program.clone(), cfg.scan.views as usize);
     plan.seed = Some(args.world.seed);
+    plan.pass = args.pass;
     plan.settle = Duration::from_millis(args.settle_ms);
     // The session checks it again; here before the turntable is opened.
     plan.validate()?;
@@ -130,6 +131,8 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
         args.world.up,
         rig::Vector3::zeros(),
     )?;
+    // A later pass: the object turned over as `sim --passes` turns it (on its side, upside down …).
+    let object = if args.pass > 1 { sim::turned_over(&object, args.pass).0 } else { object };
     let scene = Scene::on_turntable(&cfg, &object, albedo);
     let shown = Arc::new(Mutex::new(None));
     let mut projector: Box<dyn PatternOutput> = match args.projector_monitor {
@@ -146,11 +149,13 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
         Some(dev) if dev.starts_with("/dev/video") => open_v4l2(&dev.display().to_string(), &rig)?,
         Some(dir) if dir.as_os_str() != "sim" => {
             let mut replay = acquire::FolderCamera::open(dir)?;
-            // A resumed session replays from the first frame of its first incomplete view.
+            // A resumed session replays from the first frame of its pass's first incomplete view
+            // (the folder holds this pass's frames).
             if args.resume
                 && let Ok(m) = rig::Manifest::read(&args.out)
             {
-                replay.skip(m.first_incomplete().unwrap_or(m.views.len()) * program.len());
+                let done = m.views.iter().filter(|v| v.pass == args.pass && v.complete).count();
+                replay.skip(done * program.len());
             }
             Box::new(replay)
         }
@@ -184,7 +189,11 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
     // Ctrl-C: the session stops before its next view, keeping every complete view and saying how to
     // resume; a second Ctrl-C ends at once (the manifest only ever lists complete views).
     let presses = std::sync::atomic::AtomicUsize::new(0);
-    let resume_with = format!("scanrig scan --out {} --resume", args.out.display());
+    let resume_with = format!(
+        "scanrig scan --out {} --resume{}",
+        args.out.display(),
+        if args.pass > 1 { format!(" --pass {}", args.pass) } else { String::new() }
+    );
     let handler = ctrlc::set_handler(move || {
         if presses.fetch_add(1, std::sync::atomic::Ordering::SeqCst) == 0 {
             eprintln!("\nstopping after this view (Ctrl-C again to quit now); `{resume_with}` continues");

@@ -33,6 +33,9 @@ pub struct Plan {
     pub settle: Duration,
     /// A simulated capture's noise seed, recorded in the manifest.
     pub seed: Option<u64>,
+    /// The pass (from 1): a pass after the first is the object turned over and scanned again into
+    /// the same folder, its views appended (`rig::scan_folder`'s passes).
+    pub pass: u32,
 }
 
 impl Plan {
@@ -48,6 +51,7 @@ impl Plan {
             acceleration: 200.0,
             settle: Duration::from_millis(200),
             seed: None,
+            pass: 1,
         }
     }
 }
@@ -78,6 +82,13 @@ impl Plan {
             if !(v > 0.0 && v.is_finite()) {
                 return bad(option, v.to_string(), "must be positive and finite".into());
             }
+        }
+        if !(1..=rig::scan_folder::MAX_PASSES).contains(&self.pass) {
+            return bad(
+                "--pass",
+                self.pass.to_string(),
+                format!("passes count from 1 to {}", rig::scan_folder::MAX_PASSES),
+            );
         }
         if self.settle > MAX_SETTLE {
             return bad(
@@ -190,7 +201,6 @@ pub fn run(
     mut progress: impl FnMut(usize, usize, Option<Duration>),
 ) -> Result<SessionReport, SessionError> {
     let start = Instant::now();
-    let total = plan.angles.len();
     plan.validate()?;
     let (w, h) = dev.camera.size();
     if (w, h) != (rig.camera.width, rig.camera.height) {
@@ -199,52 +209,13 @@ pub fn run(
             rig.camera.width, rig.camera.height
         )));
     }
-    let fresh = Manifest::fresh(plan.method, "scanrig scan", plan.seed, &plan.angles, &plan.patterns);
     std::fs::create_dir_all(out).map_err(|e| rig::Error::io(out, e))?;
     // Two sessions writing one folder would interleave their frames and manifests.
     let _lock = rig::folder_lock::Lock::acquire(out)?;
-    let mut manifest = if out.join("scan.json").is_file() {
-        let old = Manifest::read(out)?;
-        if !resume {
-            return Err(SessionError::Folder(format!(
-                "{} already holds a scan: pass --resume to continue it, or choose another folder",
-                out.display()
-            )));
-        }
-        let same = old.method == fresh.method
-            && old.seed == fresh.seed
-            && old.views.len() == total
-            && old.views.iter().zip(&fresh.views).all(|(a, b)| a.frames == b.frames && a.angle_deg == b.angle_deg);
-        if !same {
-            return Err(SessionError::Folder(format!(
-                "{} holds a different scan (views, angles, frames or seed differ): it cannot be resumed with this plan",
-                out.display()
-            )));
-        }
-        // The frames already on disk were taken with the folder's rig: a resumed session with another
-        // camera (another resolution, say) would mix two cameras in one scan.
-        let recorded = Rig::read(&out.join(&old.rig))?;
-        if recorded.camera != rig.camera {
-            let (a, b) = (&recorded.camera, &rig.camera);
-            return Err(SessionError::Folder(format!(
-                "{} was captured with a {}x{} camera (fx {}), this session's is {}x{} (fx {}): resume with the same \
-                 camera and --resolution",
-                out.display(),
-                a.width,
-                a.height,
-                a.fx,
-                b.width,
-                b.height,
-                b.fx
-            )));
-        }
-        old
-    } else {
-        rig.write(&out.join("rig.toml"))?;
-        fresh.write(out)?;
-        fresh
-    };
-    let first = manifest.first_incomplete().unwrap_or(total);
+    let (mut manifest, offset) = open_manifest(out, rig, plan, resume)?;
+    let total = manifest.views.len();
+    // This pass's views are the manifest's last: capture from its first incomplete one.
+    let first = manifest.views[offset..].iter().position(|v| !v.complete).map_or(total, |k| offset + k);
     let complete = |m: &Manifest| m.views.iter().filter(|v| v.complete).count();
     if first == total {
         return Ok(SessionReport { captured: 0, complete: total, total, started_at: total, seconds: 0.0 });
@@ -258,7 +229,7 @@ pub fn run(
     let Devices { turntable, camera, projector } = dev;
     let tt_err = |view: usize, m: &Manifest, e: TurntableError| SessionError::Turntable {
         view,
-        angle_deg: plan.angles[view],
+        angle_deg: m.views[view].angle_deg,
         complete: complete(m),
         total,
         error: e,
@@ -269,7 +240,8 @@ pub fn run(
             t.laser(i, false)?;
         }
         t.motor(true)?;
-        if first == 0 {
+        // A pass starts where the platter stands: the object was just placed on it.
+        if first == offset {
             t.set_zero()?;
         }
         t.set_speed(plan.speed)?;
@@ -284,7 +256,7 @@ pub fn run(
         if STOP.swap(false, std::sync::atomic::Ordering::SeqCst) {
             return Err(SessionError::Stopped { view: v, complete: complete(&manifest), total });
         }
-        turntable.move_to(plan.angles[v]).map_err(|e| tt_err(v, &manifest, e))?;
+        turntable.move_to(manifest.views[v].angle_deg).map_err(|e| tt_err(v, &manifest, e))?;
         std::thread::sleep(plan.settle);
         let dir = out.join(rig::scan_folder::ScanLayout::frames(v));
         std::fs::create_dir_all(&dir).map_err(|e| rig::Error::io(&dir, e))?;
@@ -350,4 +322,95 @@ pub fn run(
         started_at: first,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// The manifest this session captures into and the index of its pass's first view: a new scan; the
+/// same scan resumed; or, for a pass after the first, the folder's scan with this pass's views
+/// appended once every earlier pass is complete.
+fn open_manifest(out: &Path, rig: &Rig, plan: &Plan, resume: bool) -> Result<(Manifest, usize), SessionError> {
+    let fresh = Manifest::fresh(plan.method, "scanrig scan", plan.seed, &plan.angles, &plan.patterns);
+    let folder = |msg: String| Err(SessionError::Folder(msg));
+    if !out.join("scan.json").is_file() {
+        if plan.pass > 1 {
+            return folder(format!(
+                "{} holds no scan: pass {} continues a scan of the same object; capture pass 1 there first (leave out \
+                 --pass)",
+                out.display(),
+                plan.pass
+            ));
+        }
+        rig.write(&out.join("rig.toml"))?;
+        fresh.write(out)?;
+        return Ok((fresh, 0));
+    }
+    let mut old = Manifest::read(out)?;
+    // The frames already on disk were taken with the folder's rig: a resumed session with another
+    // camera (another resolution, say) would mix two cameras in one scan.
+    let recorded = Rig::read(&out.join(&old.rig))?;
+    if recorded.camera != rig.camera {
+        let (a, b) = (&recorded.camera, &rig.camera);
+        return folder(format!(
+            "{} was captured with a {}x{} camera (fx {}), this session's is {}x{} (fx {}): resume with the same \
+             camera and --resolution",
+            out.display(),
+            a.width,
+            a.height,
+            a.fx,
+            b.width,
+            b.height,
+            b.fx
+        ));
+    }
+    let passes = old.passes();
+    let offset = old.views.iter().position(|v| v.pass == plan.pass).unwrap_or(old.views.len());
+    if plan.pass == passes + 1 {
+        // A new pass: every view before it on disk, the same capture program, the views appended.
+        if let Some(v) = old.views.iter().position(|v| !v.complete) {
+            return folder(format!(
+                "{} has view {v} of pass {} incomplete: finish it first (scanrig scan --out {} --resume{})",
+                out.display(),
+                old.views[v].pass,
+                out.display(),
+                if old.views[v].pass > 1 { format!(" --pass {}", old.views[v].pass) } else { String::new() }
+            ));
+        }
+        if old.method != plan.method || old.views.first().is_some_and(|v| v.frames != fresh.views[0].frames) {
+            return folder(format!(
+                "{} was captured with another program (method or frames): a pass must capture what the first did",
+                out.display()
+            ));
+        }
+        old.append_pass(plan.pass, &plan.angles, &plan.patterns);
+        old.write(out)?;
+        return Ok((old, offset));
+    }
+    if plan.pass != passes {
+        return folder(format!(
+            "{} holds {passes} pass(es): --pass {} would leave a gap; the next pass is --pass {}",
+            out.display(),
+            plan.pass,
+            passes + 1
+        ));
+    }
+    if !resume {
+        return folder(format!(
+            "{} already holds {}: pass --resume to continue it, or choose another folder",
+            out.display(),
+            if passes > 1 { format!("pass {passes} of a scan") } else { "a scan".into() }
+        ));
+    }
+    let mine = &old.views[offset..];
+    let same = old.method == fresh.method
+        && old.seed == fresh.seed
+        && mine.len() == fresh.views.len()
+        && mine.iter().zip(&fresh.views).all(|(a, b)| {
+            a.angle_deg == b.angle_deg && a.frames.iter().map(|f| f.pattern).eq(b.frames.iter().map(|f| f.pattern))
+        });
+    if !same {
+        return folder(format!(
+            "{} holds a different scan (views, angles, frames or seed differ): it cannot be resumed with this plan",
+            out.display()
+        ));
+    }
+    Ok((old, offset))
 }

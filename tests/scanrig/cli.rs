@@ -1028,3 +1028,40 @@ fn align_moves_a_bunny_scan_onto_its_neighbour_and_refuses_a_sphere_unless_force
     let written = rig::read_cloud(&d.path("bun045_on_000.ply")).unwrap();
     assert_eq!(written.len(), rig::read_cloud(&a).unwrap().len());
 }
+
+/// Issue 40: a second pass captured into the same folder (`scan --pass 2`, the object turned over)
+/// appends its views and writes what `sim --passes 2` writes, frame for frame; a pass that skips
+/// one, or a pass 2 with no pass 1, is refused naming the next pass.
+#[test]
+fn a_second_pass_on_the_virtual_rig_matches_the_simulated_passes() {
+    let d = Dir::new();
+    let (simulated, scanned) = (d.path("sim"), d.path("scan"));
+    let common = ["--config", "laser", "--views", "3", "--resolution", "160x128", "--seed", "9"];
+    let run = |first: &[&str], out: &Path| {
+        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
+            first.iter().chain(&common).map(|a| a as &dyn AsRef<std::ffi::OsStr>).collect();
+        args.extend([&"--out" as &dyn AsRef<std::ffi::OsStr>, &out]);
+        scanrig(&args)
+    };
+    let o = run(&["sim", "--passes", "2"], &simulated);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = run(&["scan", "--settle-ms", "0", "--pass", "2"], &scanned);
+    assert!(!o.status.success() && stderr(&o).contains("capture pass 1 there first"), "{}", stderr(&o));
+    for pass in ["1", "2"] {
+        let o = run(&["scan", "--settle-ms", "0", "--pass", pass], &scanned);
+        assert!(o.status.success(), "pass {pass}: {}", stderr(&o));
+    }
+    let o = run(&["scan", "--settle-ms", "0", "--pass", "4"], &scanned);
+    assert!(!o.status.success() && stderr(&o).contains("the next pass is --pass 3"), "{}", stderr(&o));
+    let (a, b) = (rig::Manifest::read(&simulated).unwrap(), rig::Manifest::read(&scanned).unwrap());
+    assert_eq!(b.passes(), 2);
+    assert_eq!(a.views.len(), b.views.len());
+    for (va, vb) in a.views.iter().zip(&b.views) {
+        assert_eq!((&va.frames, va.pass, va.angle_deg), (&vb.frames, vb.pass, vb.angle_deg));
+        for f in &va.frames {
+            let (x, y) =
+                (std::fs::read(simulated.join(&f.file)).unwrap(), std::fs::read(scanned.join(&f.file)).unwrap());
+            assert!(x == y, "{} differs from the simulator's", f.file);
+        }
+    }
+}
