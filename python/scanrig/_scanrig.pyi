@@ -84,6 +84,18 @@ def icp(
 ) -> tuple[_F64, dict[str, Any]]:
     """Point-to-plane ICP (thesis ch. 2.2): (4×4 transform, report)."""
 
+def align(
+    moving: _F64,
+    fixed: _F64,
+    *,
+    voxel: Optional[float] = None,
+    seed: Optional[int] = None,
+    force: bool = False,
+) -> tuple[_F64, dict[str, Any]]:
+    """Global registration, no pose to start from (issue 40): (4×4 transform, report).
+
+    Raises StageError when the match is ambiguous or unsupported, unless force=True."""
+
 def process(
     scan: _Path,
     out: Optional[_Path] = None,

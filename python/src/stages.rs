@@ -18,6 +18,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(reconstruct, m)?)?;
     m.add_function(wrap_pyfunction!(remesh, m)?)?;
     m.add_function(wrap_pyfunction!(icp, m)?)?;
+    m.add_function(wrap_pyfunction!(align, m)?)?;
     m.add_function(wrap_pyfunction!(process_scan, m)?)?;
     Ok(())
 }
@@ -256,10 +257,55 @@ fn icp<'py>(
     let target = IcpTarget::new(t.points().to_vec(), tn.vectors().to_vec(), None);
     let result = interruptible(py, move || run_icp(rows.points(), row_normals.vectors(), &target, &start, &params))?;
     let (pose, r) = result.map_err(errors::stage)?;
+    Ok((pose_out(py, &pose), report(py, &r)?))
+}
+
+/// Global registration (issue 40): `moving` aligned onto `fixed` with no pose to start from, by
+/// local shape descriptors, a robust search and ICP — as `scanrig align` and a scan's passes are.
+/// The matching spacing is `voxel` (default 1/100 of `fixed`'s bounding-box diagonal). An
+/// ambiguous or unsupported match (a sphere, unrelated objects) raises `StageError` with the
+/// reason unless `force`, which returns the best guess with a `UserWarning`. Returns (4×4 transform
+/// taking `moving` into `fixed`'s frame, report).
+#[pyfunction]
+#[pyo3(signature = (moving, fixed, *, voxel=None, seed=None, force=false))]
+fn align<'py>(
+    py: Python<'py>,
+    moving: &Bound<'py, PyAny>,
+    fixed: &Bound<'py, PyAny>,
+    voxel: Option<f64>,
+    seed: Option<u64>,
+    force: bool,
+) -> PyResult<(Bound<'py, PyArray2<f64>>, Bound<'py, PyAny>)> {
+    use ::process::register::global::{GlobalError, GlobalParams, align_global};
+    let m = Xyz::extract(moving, "moving")?;
+    let f = Xyz::extract(fixed, "fixed")?;
+    let (m, f) = (m.points().to_vec(), f.points().to_vec());
+    // An option the library refuses is a ValueError naming the keyword, as the others are.
+    let keyword = |e: GlobalError| match e {
+        GlobalError::Param(p) => PyValueError::new_err(format!("voxel={}: {}", p.value, p.why)),
+        other => errors::stage(other),
+    };
+    let seed = seed.unwrap_or(GlobalParams::default().seed);
+    let params = GlobalParams::for_clouds(&m, &f, voxel, seed).map_err(keyword)?;
+    let a = interruptible(py, move || align_global(&m, &f, &params))?.map_err(keyword)?;
+    if !a.aligned {
+        let what = format!("moving could not be aligned onto fixed: {}", a.why);
+        if !force {
+            return Err(errors::StageError::new_err(format!("{what}; force=True returns the best guess anyway")));
+        }
+        errors::warn_each(py, &[format!("{what} (returned anyway: force=True)")])?;
+    }
+    let r = report(py, &a)?;
+    r.set_item("voxel", params.voxel)?;
+    Ok((pose_out(py, &a.pose), r))
+}
+
+/// A rigid motion as a 4×4 float64 array.
+fn pose_out<'py>(py: Python<'py>, pose: &rig::math::Isometry3) -> Bound<'py, PyArray2<f64>> {
     let m4 = pose.to_homogeneous();
     let flat: Vec<f64> = (0..4).flat_map(|i| (0..4).map(move |j| m4[(i, j)])).collect();
     let out = numpy::ndarray::Array2::from_shape_vec((4, 4), flat).expect("4×4");
-    Ok((numpy::IntoPyArray::into_pyarray(out, py), report(py, &r)?))
+    numpy::IntoPyArray::into_pyarray(out, py)
 }
 
 /// A rigid 4×4 transform argument.

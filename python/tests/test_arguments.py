@@ -37,6 +37,7 @@ CALLS = [
     (scanrig.reconstruct, [GOOD3, GOOD3], {"depth": 4}),
     (scanrig.remesh, [GOOD3, np.array([[0, 1, 2]])], {}),
     (scanrig.icp, [GOOD3, GOOD3, GOOD3, GOOD3], {"max_iterations": 1}),
+    (scanrig.align, [GOOD3, GOOD3], {}),
     (scanrig.denoise, [GRID], {}),
     (scanrig.decode, [[np.zeros((8, 8), dtype=np.uint8)] * 42], {"projector": (1024, 768)}),
     (scanrig.triangulate, [np.zeros((8, 8, 3)), "no-such-rig.toml"], {}),

@@ -112,6 +112,32 @@ def test_icp_recovers_a_known_motion(bunny_fused):
     assert report["iterations"] >= 1
 
 
+def test_align_finds_a_bunny_scan_from_any_pose_equal_to_the_cli_and_refuses_a_sphere(tmp_path):
+    a, b = need(BUNNY / "data/bun045.ply"), need(BUNNY / "data/bun000.ply")
+    moving, fixed = scanrig.read_cloud(a)["points"], scanrig.read_cloud(b)["points"]
+    # The moving scan turned half a turn and moved: no pose to start from.
+    turn = np.array([[-1.0, 0, 0], [0, 1, 0], [0, 0, -1]])
+    moved = np.ascontiguousarray(moving @ turn.T + [0.05, -0.02, 0.1])
+    pose, report = scanrig.align(moved, fixed)
+    assert report["aligned"] and report["overlap"] > 0.5, report
+    # Back where the file's own alignment puts it: the CLI on the unmoved files.
+    r = run("align", a, b, "--json")
+    expected = np.array(__import__("json").loads(r.stdout)["pose"])
+    undone = pose @ np.block([[turn, np.array([[0.05], [-0.02], [0.1]])], [np.zeros((1, 3)), np.ones((1, 1))]])
+    back, want = moving @ undone[:3, :3].T + undone[:3, 3], moving @ expected[:3, :3].T + expected[:3, 3]
+    assert np.sqrt(((back - want) ** 2).sum(axis=1).mean()) < 5e-4, report
+    # A sphere fits itself turned any way: refused, or returned with a warning when forced.
+    rng = np.random.default_rng(3)
+    sphere = rng.normal(size=(3000, 3))
+    sphere = 50 * sphere / np.linalg.norm(sphere, axis=1, keepdims=True)
+    with pytest.raises(scanrig.StageError, match="ambiguous"):
+        scanrig.align(np.ascontiguousarray(sphere[:, [1, 0, 2]]), sphere)
+    with pytest.warns(UserWarning, match="ambiguous"):
+        scanrig.align(np.ascontiguousarray(sphere[:, [1, 0, 2]]), sphere, force=True)
+    with pytest.raises(ValueError, match="voxel=0"):
+        scanrig.align(sphere, sphere, voxel=0.0)
+
+
 def test_wrong_arrays_are_python_errors_never_crashes():
     good = np.zeros((10, 3))
     with pytest.raises(ValueError, match="points: expected N×3"):
