@@ -76,6 +76,12 @@ fn a_bunny_turned_on_its_side_for_a_second_pass_is_aligned_and_its_base_measured
         assert!(f["aligned"] == true && angle <= 0.2 && rms <= 0.2, "pass {}: {angle}° {rms} mm", f["pass"]);
     }
 
+    // The page shows each pass in its colour, how it was placed, and the surface no pass saw.
+    let page = std::fs::read_to_string(d.path().join("two/processed/report.html")).unwrap();
+    for needle in ["passes (each its colour)", "aligned by its shape", "Surface not seen"] {
+        assert!(page.contains(needle), "report.html lacks `{needle}`");
+    }
+
     // The merged mesh covers the whole surface, base included; one pass leaves the base to a guess.
     let topo = rig::topology::topology(&two);
     assert!(topo.is_closed_oriented_manifold(), "{topo:?}");

@@ -58,14 +58,34 @@ pub struct PreparedScene {
     scene: Scene,
     extent: Option<Extent>,
     accuracy: Option<(String, Real)>,
+    unseen: Option<Unseen>,
 }
+
+/// The mesh's surface no measured point supports: what the reconstruction made up.
+#[derive(Debug, Clone, Copy)]
+struct Unseen {
+    /// Share of the mesh's area whose corners all lie farther than `limit_mm` from every point.
+    share: Real,
+    /// The distance (0.5 % of the cloud's diagonal).
+    limit_mm: Real,
+}
+
+/// A pass's colour in the viewer (pass 1 first): distinct hues that read on a light background.
+const PASS_COLOURS: [[u8; 3]; 6] =
+    [[230, 120, 30], [40, 110, 220], [40, 170, 80], [150, 70, 200], [210, 50, 60], [30, 170, 170]];
 
 /// Makes the [`PreparedScene`] of `processed` (see there).
 pub fn prepare_scene(scan: &Path, processed: &Path) -> Result<PreparedScene, PageError> {
     let truth_path = scan.join("truth/object.ply");
-    let (scene, extent, accuracy) =
-        scene(&Layout::new(processed), truth_path.is_file().then_some(truth_path.as_path()))?;
-    Ok(PreparedScene { scene, extent, accuracy })
+    // Each view's pass, where the scan has several.
+    let passes: Option<Vec<u32>> =
+        rig::Manifest::read(scan).ok().filter(|m| m.passes() > 1).map(|m| m.views.iter().map(|v| v.pass).collect());
+    let truth = truth_path.is_file().then_some(truth_path.as_path());
+    let (mut scene, extent, accuracy, unseen) = scene(&Layout::new(processed), truth)?;
+    if let Some(passes) = passes {
+        passes_layer(&mut scene, &Layout::new(processed), &passes)?;
+    }
+    Ok(PreparedScene { scene, extent, accuracy, unseen })
 }
 
 /// The page's HTML and the truth RMS (% of the diagonal) where there is a truth.
@@ -118,12 +138,13 @@ fn build_prepared(
             headline.iter().map(|f| format!("<a href=\"{}\">{}</a>", esc(&crate::escape::href(f)), esc(f))).collect();
         summary_html.push_str(&format!("<p class=\"downloads\">Results: {}</p>", links.join(" · ")));
     }
-    summary_html.push_str(&summary(&report, rig.as_ref(), manifest.as_ref()));
-    page.section("summary", "Summary", summary_html);
-    let PreparedScene { scene, extent, accuracy } = match prepared {
+    let PreparedScene { scene, extent, accuracy, unseen } = match prepared {
         Some(p) => p,
         None => prepare_scene(scan, processed)?,
     };
+    summary_html.push_str(&summary(&report, rig.as_ref(), manifest.as_ref()));
+    summary_html.push_str(&passes_and_unseen(&report, unseen));
+    page.section("summary", "Summary", summary_html);
     page.section("views", "Views", views(&report, rig.as_ref(), extent, &lay)?);
     if scene.layer_count() > 0 {
         page.viewer_section("view3d", "3D view", scene);
@@ -520,9 +541,13 @@ fn views(r: &ProcessReport, rig: Option<&Rig>, extent: Option<Extent>, lay: &Lay
 /// The viewer's scene: the fused cloud (else the registered or merged one), the mesh, and its
 /// error against the truth where there is one; with the accuracy section's HTML and RMS.
 #[allow(clippy::type_complexity)]
-fn scene(lay: &Layout, truth: Option<&Path>) -> Result<(Scene, Option<Extent>, Option<(String, Real)>), PageError> {
+fn scene(
+    lay: &Layout,
+    truth: Option<&Path>,
+) -> Result<(Scene, Option<Extent>, Option<(String, Real)>, Option<Unseen>), PageError> {
     let mut scene = Scene::new();
     let mut extent = None;
+    let mut points = Vec::new();
     if let Some(name) = [layout::FUSED, layout::REGISTERED, layout::MERGED].into_iter().find(|n| lay.path(n).is_file())
     {
         let cloud = rig::ply::read_cloud(&lay.path(name))?;
@@ -530,13 +555,16 @@ fn scene(lay: &Layout, truth: Option<&Path>) -> Result<(Scene, Option<Extent>, O
         let label = format!("{} cloud", name.trim_end_matches(".ply"));
         // The cloud, the mesh and its error colouring show one at a time: each hides the others.
         scene.add_points(&label, &cloud.positions, cloud.colors.as_deref(), true, Some("surface"));
+        points = cloud.positions;
     }
     let mut accuracy = None;
+    let mut unseen = None;
     if lay.path(layout::MESH).is_file() {
         let poly = rig::ply::read_mesh(&lay.path(layout::MESH))?;
         let mesh = poly.triangulate();
         let first = scene.layer_count() == 0;
         let (geometry, members) = scene.add_mesh("mesh", &mesh, poly.colors.as_deref(), first, Some("surface"));
+        unseen = unseen_layer(&mut scene, &mesh, &points, geometry, &members);
         if let Some(truth) = truth {
             let t = rig::ply::read_mesh(truth)?.triangulate();
             let diag = t.bounding_box().map_or(1.0, |b| b.diagonal());
@@ -584,7 +612,106 @@ fn scene(lay: &Layout, truth: Option<&Path>) -> Result<(Scene, Option<Extent>, O
             accuracy = Some((h, 100.0 * rms / diag));
         }
     }
-    Ok((scene, extent, accuracy))
+    Ok((scene, extent, accuracy, unseen))
+}
+
+/// The mesh coloured by whether a measured point lies near it (grey) or none does (red): the surface
+/// the scan never saw, which the reconstruction closed by itself. Returns its share of the area.
+fn unseen_layer(
+    scene: &mut Scene,
+    mesh: &rig::TriMesh,
+    points: &[rig::math::Point3],
+    geometry: crate::scene::MeshGeometry,
+    members: &[Vec<u32>],
+) -> Option<Unseen> {
+    let diag = rig::Aabb::of(points)?.diagonal();
+    let limit = 0.005 * diag;
+    let tree = process::kd_tree::PointTree::new(points);
+    let far: Vec<bool> = mesh.vertices.par_iter().map(|v| tree.nearest(v).1 > limit * limit).collect();
+    let (mut total, mut off) = (0.0, 0.0);
+    for f in &mesh.faces {
+        let [a, b, c] = f.map(|i| mesh.vertices[i as usize]);
+        let area = (b - a).cross(&(c - a)).norm() / 2.0;
+        total += area;
+        if f.iter().all(|&i| far[i as usize]) {
+            off += area;
+        }
+    }
+    let colours: Vec<[u8; 3]> = members
+        .iter()
+        .map(|m| if m.iter().all(|&i| far[i as usize]) { [215, 45, 45] } else { [185, 185, 185] })
+        .collect();
+    let legend = format!(
+        "<span style=\"color:rgb(215,45,45)\">■</span> no measured point within {} mm (made up by the reconstruction) \
+         · <span style=\"color:rgb(185,185,185)\">■</span> measured",
+        num(limit)
+    );
+    scene.add_mesh_colouring("surface not seen", geometry, &colours, legend, false, Some("surface"));
+    Some(Unseen { share: off / total.max(1e-300), limit_mm: limit })
+}
+
+/// The registered cloud coloured by pass (a scan of several passes).
+fn passes_layer(scene: &mut Scene, lay: &Layout, passes: &[u32]) -> Result<(), PageError> {
+    let path = lay.path(layout::REGISTERED);
+    if !path.is_file() {
+        return Ok(());
+    }
+    let cloud = rig::ply::read_cloud(&path)?;
+    let Some(ids) = cloud.view_id.as_ref() else { return Ok(()) };
+    let colour = |v: u32| {
+        let p = passes.get(v as usize).copied().unwrap_or(1).clamp(1, PASS_COLOURS.len() as u32);
+        PASS_COLOURS[p as usize - 1]
+    };
+    let colours: Vec<[u8; 3]> = ids.iter().map(|&v| colour(v)).collect();
+    scene.add_points("passes (each its colour)", &cloud.positions, Some(&colours), false, Some("surface"));
+    Ok(())
+}
+
+/// The summary's passes table (how each pass was placed, how sure) and the surface no pass saw.
+fn passes_and_unseen(r: &ProcessReport, unseen: Option<Unseen>) -> String {
+    let mut h = String::new();
+    if let Some(passes) = r.register.as_ref().and_then(|s| s.report.passes.as_ref()) {
+        h.push_str(
+            "<h3>Passes</h3><table><tr><th>pass</th><th class=\"num\">views</th><th class=\"num\">points</th>\
+             <th>placed</th><th class=\"num\">overlap</th><th class=\"num\">matches agreeing</th>\
+             <th class=\"num\">rival</th><th class=\"num\">ICP refinement</th></tr>",
+        );
+        for a in passes {
+            let [r, g, b] = PASS_COLOURS[(a.pass.clamp(1, 6) - 1) as usize];
+            let placed = match (a.pass, a.aligned) {
+                (1, _) => "reference".to_string(),
+                (_, true) => "aligned by its shape".to_string(),
+                (_, false) => format!("<b>not trusted</b>: {}", esc(&a.why)),
+            };
+            let _ = write!(
+                h,
+                "<tr><td><span style=\"color:rgb({r},{g},{b})\">■</span> {}</td><td class=\"num\">{}</td>\
+                 <td class=\"num\">{}</td><td>{placed}</td><td class=\"num\">{:.0} %</td>\
+                 <td class=\"num\">{} of {}</td><td class=\"num\">{:.2}</td><td class=\"num\">{:.3}° / {:.3} mm</td></tr>",
+                a.pass,
+                a.views,
+                count(a.points),
+                100.0 * a.overlap,
+                a.inliers,
+                a.matches,
+                a.rival_share,
+                a.refine_deg,
+                a.refine_mm
+            );
+        }
+        h.push_str("</table>");
+    }
+    if let Some(u) = unseen {
+        let _ = write!(
+            h,
+            "<p>Surface not seen: <b>{:.1} %</b> of the mesh's area lies farther than {} mm (0.5 % of the cloud's \
+             diagonal) from every measured point — closed by the reconstruction, not measured (the 3D view's \
+             “surface not seen” layer shows where; another pass with the object turned over measures it).</p>",
+            100.0 * u.share,
+            num(u.limit_mm)
+        );
+    }
+    h
 }
 
 #[cfg(test)]
