@@ -3,7 +3,7 @@
 use crate::cli::{SimArgs, SimLayout, SimMethod, SimWorld, Up};
 use anyhow::{Context, Result, bail};
 use rig::Method;
-use sim::{Albedo, Scene, SimConfig, UpAxis};
+use sim::{Albedo, SimConfig, UpAxis};
 use std::io::Write;
 
 /// A built-in config by name (`sim::config::BUILTIN`), else a TOML file.
@@ -83,13 +83,9 @@ pub fn run(args: &SimArgs) -> Result<()> {
     let offset = rig::Vector3::from(args.offset.unwrap_or([0.0; 3]));
     let (object, albedo) = object_on_platter(&cfg, args.world.mesh.as_deref(), size, args.world.up, offset)?;
     // Each pass the object as it lies then: turned over, standing on the platter again.
-    let turned: Vec<(rig::TriMesh, rig::Isometry3)> = (2..=args.passes).map(|p| sim::turned_over(&object, p)).collect();
-    let scenes: Vec<Scene> = std::iter::once(Scene::on_turntable(&cfg, &object, albedo.clone()))
-        .chain(turned.iter().map(|(m, _)| Scene::on_turntable(&cfg, m, albedo.clone())))
-        .collect();
-    let motions = std::iter::once(rig::Isometry3::identity()).chain(turned.iter().map(|t| t.1));
+    let scenes = sim::scan::pass_scenes(&cfg, &object, &albedo, args.passes);
     let passes: Vec<sim::SimPass> =
-        scenes.iter().zip(motions).map(|(scene, motion)| sim::SimPass { scene, motion }).collect();
+        scenes.iter().map(|(scene, motion)| sim::SimPass { scene, motion: *motion }).collect();
     let opts = sim::ScanOptions { method, seed: args.world.seed, truth: !args.no_truth };
     eprintln!(
         "simulating {}{} views of {} ({} triangles) at {}×{} into {}",

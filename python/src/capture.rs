@@ -178,7 +178,7 @@ fn simulate_view<'py>(
 /// Simulates a turntable scan into the folder `out` as `scanrig sim` does (frames, manifest, rig.toml,
 /// truth/), resuming a half-written one. Returns the report.
 #[pyfunction]
-#[pyo3(signature = (out, *, config="structured-light", method=None, views=None, resolution=None, mesh=None, size=None, up="y", seed=1, noiseless=false, truth=true))]
+#[pyo3(signature = (out, *, config="structured-light", method=None, views=None, resolution=None, mesh=None, size=None, up="y", seed=1, noiseless=false, truth=true, passes=1))]
 #[allow(clippy::too_many_arguments)]
 fn simulate_scan<'py>(
     py: Python<'py>,
@@ -193,15 +193,25 @@ fn simulate_scan<'py>(
     seed: u64,
     noiseless: bool,
     truth: bool,
+    passes: u32,
 ) -> PyResult<Bound<'py, PyAny>> {
+    if !(1..=rig::scan_folder::MAX_PASSES).contains(&passes) {
+        return Err(PyValueError::new_err(format!(
+            "passes must be 1 to {}, got {passes}",
+            rig::scan_folder::MAX_PASSES
+        )));
+    }
     let w = world(config, resolution, views, mesh.as_deref(), size, up, noiseless)?;
     let method = method_of(method, &w.cfg)?;
     rig::memory::check(sim::scan::memory_estimate(&w.cfg), "simulating these views", "choose a smaller resolution")
         .map_err(|e| errors::ScanrigError::new_err(e.to_string()))?;
     let opts = sim::ScanOptions { method, seed, truth };
     let r = interruptible(py, move || {
-        let scene = sim::Scene::on_turntable(&w.cfg, &w.object, w.albedo);
-        sim::simulate_scan(&w.cfg, &scene, Some(&w.object), opts, &out, |_, _| {})
+        // Each pass the object turned over as `scanrig sim --passes` turns it.
+        let scenes = sim::scan::pass_scenes(&w.cfg, &w.object, &w.albedo, passes);
+        let passes: Vec<sim::SimPass> =
+            scenes.iter().map(|(scene, motion)| sim::SimPass { scene, motion: *motion }).collect();
+        sim::simulate_passes(&w.cfg, &passes, Some(&w.object), opts, &out, |_, _| {})
             .map_err(|e| format!("simulating into {}: {e}", out.display()))
     })?
     .map_err(errors::ScanrigError::new_err)?;

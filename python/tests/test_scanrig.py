@@ -5,6 +5,8 @@ The CLI binary is SCANRIG_CLI, else target/debug/scanrig or target/release/scanr
 checkout; tests that need it or the data skip, saying so.
 """
 
+import json
+
 import numpy as np
 import pytest
 
@@ -122,7 +124,7 @@ def test_align_finds_a_bunny_scan_from_any_pose_equal_to_the_cli_and_refuses_a_s
     assert report["aligned"] and report["overlap"] > 0.5, report
     # Back where the file's own alignment puts it: the CLI on the unmoved files.
     r = run("align", a, b, "--json")
-    expected = np.array(__import__("json").loads(r.stdout)["pose"])
+    expected = np.array(json.loads(r.stdout)["pose"])
     undone = pose @ np.block([[turn, np.array([[0.05], [-0.02], [0.1]])], [np.zeros((1, 3)), np.ones((1, 1))]])
     back, want = moving @ undone[:3, :3].T + undone[:3, 3], moving @ expected[:3, :3].T + expected[:3, 3]
     assert np.sqrt(((back - want) ** 2).sum(axis=1).mean()) < 5e-4, report

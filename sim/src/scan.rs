@@ -222,6 +222,21 @@ pub struct SimPass<'a> {
     pub motion: Isometry3,
 }
 
+/// The scenes of a scan in `passes` passes: the object as placed, then turned over for each further
+/// pass ([`crate::object::turned_over`]), each with the motion from the first pass's object frame.
+pub fn pass_scenes(cfg: &SimConfig, object: &TriMesh, albedo: &crate::Albedo, passes: u32) -> Vec<(Scene, Isometry3)> {
+    (1..=passes.max(1))
+        .map(|p| match p {
+            // The first pass as placed (an --offset kept).
+            1 => (Scene::on_turntable(cfg, object, albedo.clone()), Isometry3::identity()),
+            _ => {
+                let (turned, motion) = crate::object::turned_over(object, p);
+                (Scene::on_turntable(cfg, &turned, albedo.clone()), motion)
+            }
+        })
+        .collect()
+}
+
 /// Simulates a turntable scan into `out`: frames, manifest (each completed view journalled), the
 /// rig, and truth. A folder holding the same scan half done is resumed at its first incomplete view.
 /// `progress(done, total)` is called after every view.

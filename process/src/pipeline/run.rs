@@ -95,7 +95,7 @@ pub fn process_scan(
     let crop = CropParams { radius_mm: params.crop.radius_mm.or(rig.platter_radius_mm), ..params.crop };
     let pass_of = manifest.views.iter().map(|v| v.pass).collect();
     let scx = ScanCx { o: &o, rig: &rig, method: manifest.method, params, pass_of };
-    if scx.passes() && params.until < Stage::Register {
+    if scx.passes() && params.until == Stage::Merge {
         report.warnings.push(format!(
             "{}: this scan has {} passes, each in its own turntable frame until register aligns them: --until {} \
              leaves them apart",
