@@ -20,7 +20,8 @@ fn bunny_pairs_align_from_any_pose_and_say_when_they_do_not() {
             eprintln!("SKIPPED: a bunny scan is absent");
             return;
         };
-        for _ in 0..2 {
+        // One start a pair here; the bench (`cargo bench -p process --bench global`) runs ten.
+        for _ in 0..1 {
             tries += 1;
             let start = fixtures::random_pose(&mut rng);
             let moved: Vec<Point3> = m.iter().map(|p| start * p).collect();
@@ -56,7 +57,7 @@ fn bunny_pairs_align_from_any_pose_and_say_when_they_do_not() {
         angles.get(angles.len() / 2).copied().unwrap_or(Real::NAN)
     );
     assert!(wrong_but_aligned.is_empty(), "wrong alignments called aligned: {wrong_but_aligned:?}");
-    assert!(ok + 2 >= tries, "only {ok} of {tries} aligned");
+    assert!(ok + 1 >= tries, "only {ok} of {tries} aligned");
 }
 
 #[test]
@@ -87,7 +88,7 @@ fn two_unrelated_objects_are_not_called_aligned() {
     // The simulator's fluted vase, as tall as the bunny scan is wide, against the bunny.
     let vase = sim::fluted_vase(150.0).vertices;
     let mut rng = fixtures::Rng::new(11);
-    for _ in 0..3 {
+    {
         let start = fixtures::random_pose(&mut rng);
         let moved: Vec<Point3> = vase.iter().map(|p| start * p).collect();
         let a = align_global(&moved, &bunny, &GlobalParams::default()).unwrap();
