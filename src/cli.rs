@@ -145,6 +145,10 @@ pub enum ImportCommand {
         /// The rig file or scan folder to write (a scan folder must not exist yet).
         #[arg(long, short)]
         out: PathBuf,
+        /// A further pass of the same object (turned over and scanned again): its frames and views
+        /// are added to the scan folder OUT, which holds the passes before it; `process` aligns them.
+        #[arg(long, default_value_t = 1)]
+        pass: u32,
     },
 }
 

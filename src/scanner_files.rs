@@ -17,10 +17,16 @@ pub fn import(command: &ImportCommand) -> Result<()> {
                 .with_context(|| format!("importing Horus settings {}", settings.display()))?;
             (rig, settings.clone(), out)
         }
-        ImportCommand::Fabscan { input, config, step_deg, out } if input.is_dir() && has_frames(input) => {
-            return import_fabscan_scan(input, config.as_deref(), *step_deg, out);
+        ImportCommand::Fabscan { input, config, step_deg, out, pass } if input.is_dir() && has_frames(input) => {
+            return match *pass {
+                1 => import_fabscan_scan(input, config.as_deref(), *step_deg, out),
+                p => import_fabscan_pass(input, config.as_deref(), *step_deg, out, p),
+            };
         }
-        ImportCommand::Fabscan { input, config: _, step_deg, out } => {
+        ImportCommand::Fabscan { input, config: _, step_deg, out, pass } => {
+            if *pass != 1 {
+                bail!("--pass is for a scan folder, and {} holds no FabScanPi frames", input.display());
+            }
             if step_deg.is_some() {
                 bail!(
                     "--step-deg is for a scan folder, and {} holds no FabScanPi frames (raw_laser_raw/, laser_raw/ or \
@@ -66,9 +72,22 @@ fn has_frames(dir: &Path) -> bool {
     rig::fabscan_scan::frame_folder(dir).is_some()
 }
 
-/// A FabScanPi scan folder and its config into a scanrig scan folder: built beside `out` and renamed
-/// into place when whole, so a refused or interrupted import leaves nothing behind.
-fn import_fabscan_scan(dir: &Path, config: Option<&Path>, step_deg: Option<f64>, out: &Path) -> Result<()> {
+/// A FabScanPi scan folder read and checked, ready to write: its rig (from the config), frames and
+/// manifest (frames referenced under `frames_dir`), and the config's path. Nothing is written.
+struct FabscanImport {
+    rig: rig::Rig,
+    frames: rig::fabscan_scan::FabscanFrames,
+    manifest: rig::Manifest,
+    config: PathBuf,
+    step_deg: f64,
+}
+
+fn read_fabscan_scan(
+    dir: &Path,
+    config: Option<&Path>,
+    step_deg: Option<f64>,
+    frames_dir: &str,
+) -> Result<FabscanImport> {
     // FabScanPi's config does not record the scan's resolution: the step is the user's to say, since
     // any guess from the frame count turns a stopped scan into a whole turn.
     let Some(step_deg) = step_deg else {
@@ -84,19 +103,13 @@ fn import_fabscan_scan(dir: &Path, config: Option<&Path>, step_deg: Option<f64>,
             || format!("{}: give the scanner's config.json (--config): the scan folder holds none", dir.display()),
         )?,
     };
-    if out.exists() {
-        bail!("{} exists: importing writes a new scan folder", out.display());
-    }
     let rig = rig::scanner_calibration::rig_from_fabscan(&read_text(&config)?)
         .with_context(|| format!("importing FabScanPi config {}", config.display()))?;
     let frames = rig::fabscan_scan::find_frames(dir, rig.lasers.len())?;
     let source = format!("FabScanPi scan {} imported with {}", dir.display(), config.display());
     // Checked (the step, frames beyond a turn) before anything is written.
-    let (m, notes) = rig::fabscan_scan::manifest(&frames, step_deg, "frames", &source, dir)?;
-    for note in &notes {
-        eprintln!("warning: {note}");
-    }
-    for note in &frames.notes {
+    let (manifest, notes) = rig::fabscan_scan::manifest(&frames, step_deg, frames_dir, &source, dir)?;
+    for note in notes.iter().chain(&frames.notes) {
         eprintln!("warning: {note}");
     }
     // The first frame must be the size the config says its camera captures.
@@ -115,24 +128,41 @@ fn import_fabscan_scan(dir: &Path, config: Option<&Path>, step_deg: Option<f64>,
             expect.1
         );
     }
+    Ok(FabscanImport { rig, frames, manifest, config, step_deg })
+}
+
+/// The frames a manifest names under `frames_dir/`, from the FabScanPi folder into `into`: linked
+/// where the file system allows, else copied byte for byte; only regular files.
+fn bring_frames(dir: &Path, import: &FabscanImport, frames_dir: &str, into: &Path) -> Result<()> {
+    std::fs::create_dir_all(into).with_context(|| format!("creating {}", into.display()))?;
+    let prefix = format!("{frames_dir}/");
+    // The frames the manifest names (a position that repeats another is not among them).
+    let names = import.manifest.views.iter().flat_map(|v| &v.frames).filter_map(|f| f.file.strip_prefix(&prefix));
+    for name in names {
+        let (from, to) = (dir.join(&import.frames.folder).join(name), into.join(name));
+        // A FIFO or a device in place of a frame is refused, not linked or waited on.
+        rig::input::open_regular(&from)?;
+        if std::fs::hard_link(&from, &to).is_err() {
+            std::fs::copy(&from, &to).with_context(|| format!("copying {}", from.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// A FabScanPi scan folder and its config into a scanrig scan folder: built beside `out` and renamed
+/// into place when whole, so a refused or interrupted import leaves nothing behind.
+fn import_fabscan_scan(dir: &Path, config: Option<&Path>, step_deg: Option<f64>, out: &Path) -> Result<()> {
+    if out.exists() {
+        bail!("{} exists: importing writes a new scan folder (a further pass of its object: --pass 2)", out.display());
+    }
+    let import = read_fabscan_scan(dir, config, step_deg, "frames")?;
+    let FabscanImport { rig, frames, manifest: m, config, step_deg } = &import;
     // Built in a folder of a name no user owns (`.NAME.scanrig-tmp…`, made for this run), removed with
     // its contents if the import fails: never a folder the run did not create.
     let staging = rig::run_files::temp_folder_beside(out)?;
     let partial = staging.path().to_path_buf();
     let result = (|| -> Result<()> {
-        let frames_dir = "frames";
-        std::fs::create_dir_all(partial.join(frames_dir)).with_context(|| format!("creating {}", partial.display()))?;
-        // The frames the manifest names (a position that repeats another is not among them).
-        let names = m.views.iter().flat_map(|v| &v.frames).filter_map(|f| f.file.strip_prefix("frames/"));
-        for name in names {
-            let (from, to) = (dir.join(&frames.folder).join(name), partial.join(frames_dir).join(name));
-            // Only regular files: a FIFO or a device in place of a frame is refused, not linked or waited on.
-            rig::input::open_regular(&from)?;
-            // The frames as they are: linked where the file system allows, else copied byte for byte.
-            if std::fs::hard_link(&from, &to).is_err() {
-                std::fs::copy(&from, &to).with_context(|| format!("copying {}", from.display()))?;
-            }
-        }
+        bring_frames(dir, &import, "frames", &partial.join("frames"))?;
         rig.write(&partial.join(&m.rig))?;
         m.write(&partial)?;
         Ok(())
@@ -149,6 +179,64 @@ fn import_fabscan_scan(dir: &Path, config: Option<&Path>, step_deg: Option<f64>,
         rig.lasers.len(),
         frames.id,
         config.display()
+    );
+    Ok(())
+}
+
+/// A FabScanPi scan of the same object, turned over, as pass `pass` of the scanrig scan `out` (the
+/// scan's other passes imported or captured before): its frames under `frames/pass_N/`, its views
+/// appended. The rig must be the scan's; `process` then aligns the pass by its shape.
+fn import_fabscan_pass(dir: &Path, config: Option<&Path>, step_deg: Option<f64>, out: &Path, pass: u32) -> Result<()> {
+    if !(2..=rig::scan_folder::MAX_PASSES).contains(&pass) {
+        bail!("--pass must be 1 to {}, got {pass}", rig::scan_folder::MAX_PASSES);
+    }
+    let first = || format!("{}: --pass {pass} adds to a scan folder; import its first pass there first", out.display());
+    let manifest = out.join(rig::scan_folder::MANIFEST_NAME);
+    if !manifest.is_file() {
+        bail!("{}", first());
+    }
+    // The manifest is read and written again on purpose (its views extended).
+    rig::run_files::updates(&manifest);
+    let mut scan = rig::Manifest::read(out).with_context(first)?;
+    if scan.passes() + 1 != pass {
+        bail!("{} holds {} pass(es): the next is --pass {}", out.display(), scan.passes(), scan.passes() + 1);
+    }
+    if scan.method != rig::Method::Laser || scan.views.iter().any(|v| !v.complete) {
+        bail!("{} is not a complete laser scan: a FabScanPi pass joins only one", out.display());
+    }
+    let frames_dir = format!("frames/pass_{pass}");
+    let import = read_fabscan_scan(dir, config, step_deg, &frames_dir)?;
+    let recorded = rig::Rig::read(&rig::Manifest::inside(out, &scan.rig, "rig")?)?;
+    if recorded.camera != import.rig.camera || recorded.lasers != import.rig.lasers {
+        bail!(
+            "{} describes another camera or other lasers than {}'s rig: the passes of one scan share one rig",
+            import.config.display(),
+            out.display()
+        );
+    }
+    let target = out.join(&frames_dir);
+    if target.exists() {
+        bail!("{} exists: a pass's frames go into a folder of their own", target.display());
+    }
+    // Built beside, renamed into place whole; the manifest names the pass only once its frames are there.
+    let staging = rig::run_files::temp_folder_beside(&target)?;
+    bring_frames(dir, &import, &frames_dir, staging.path())?;
+    std::fs::rename(staging.path(), &target)
+        .with_context(|| format!("moving {} to {}", staging.path().display(), target.display()))?;
+    let _ = staging.keep();
+    let views = import.manifest.views.len();
+    scan.views.extend(import.manifest.views.into_iter().map(|v| rig::scan_folder::View { pass, ..v }));
+    if let Err(e) = scan.write(out) {
+        // The frames this run moved in go again: the scan stays as it was.
+        let _ = std::fs::remove_dir_all(&target);
+        return Err(e.into());
+    }
+    println!(
+        "{}: pass {pass}, {views} positions of FabScanPi scan {} ({}° a step) appended; `scanrig process {}` aligns it",
+        out.display(),
+        import.frames.id,
+        import.step_deg,
+        out.display()
     );
     Ok(())
 }

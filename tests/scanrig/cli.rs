@@ -1012,14 +1012,7 @@ fn align_moves_a_bunny_scan_onto_its_neighbour_and_refuses_a_sphere_unless_force
     assert!(o.status.success(), "{o:?}");
     let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(json["alignment"]["aligned"], true, "{json}");
-    let rows: Vec<f64> = json["pose"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .flat_map(|r| r.as_array().unwrap().clone())
-        .map(|x| x.as_f64().unwrap())
-        .collect();
-    let found: rig::Isometry3 = nalgebra::try_convert(nalgebra::Matrix4::from_row_slice(&rows)).unwrap();
+    let found = crate::run::matrix_pose(&json["pose"]);
     let truth = poses["bun000"].inverse() * poses["bun045"];
     let angle = (found.rotation.inverse() * truth.rotation).angle().to_degrees();
     let shift_mm = (found.translation.vector * 1000.0 - truth.translation.vector).norm();

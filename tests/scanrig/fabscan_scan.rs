@@ -141,3 +141,46 @@ fn the_fabscanpi_sample_keeps_nothing_above_the_head() {
     assert!(mesh_top <= top + 2.0 && mesh_top <= 80.0, "mesh vertices up to {mesh_top} mm, top {top}");
     assert!(warning.contains("cut flat there"), "{warning}");
 }
+
+/// Issue 40: a second FabScanPi scan of the object joins the first as its pass 2 (its frames beside
+/// the first's, its views appended), and `process` aligns it; here the sample imported again, which
+/// must land exactly on itself. A pass that leaves a gap, or a scan that is not there, is refused.
+#[test]
+fn a_second_fabscanpi_scan_joins_as_a_pass_and_is_aligned() {
+    let Some((frames, config)) = sample() else { return };
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("scan");
+    let import = |pass: &str| {
+        scanrig(&[
+            &"import",
+            &"fabscan",
+            &frames,
+            &"--config",
+            &config,
+            &"--step-deg",
+            &"3.6",
+            &"-o",
+            &out,
+            &"--pass",
+            &pass,
+        ])
+    };
+    let o = import("2");
+    assert!(!o.status.success() && stderr(&o).contains("import its first pass there first"), "{}", stderr(&o));
+    assert!(import("1").status.success());
+    let o = import("3");
+    assert!(!o.status.success() && stderr(&o).contains("the next is --pass 2"), "{}", stderr(&o));
+    let o = import("2");
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m = rig::Manifest::read(&out).unwrap();
+    assert_eq!((m.passes(), m.views.len()), (2, 10));
+    assert!(m.views[5..].iter().all(|v| v.pass == 2 && v.frames[0].file.starts_with("frames/pass_2/")));
+    let o = scanrig(&[&"process", &out, &"--until", &"register"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("processed/report.json")).unwrap()).unwrap();
+    let pass2 = &report["register"]["report"]["passes"][1];
+    let motion = crate::run::matrix_pose(&pass2["first_from_pass"]);
+    let (angle, shift) = (motion.rotation.angle().to_degrees(), motion.translation.vector.norm());
+    assert!(pass2["aligned"] == true && angle < 0.01 && shift < 0.01, "{pass2}");
+}

@@ -389,6 +389,9 @@ fn option_cases() -> Vec<Case> {
     // Importing a FabScanPi scan: the step between positions.
     let fabscan = "import fabscan lscan/fabscan/sim --config lscan/fabscan/config.json -o imported";
     each(&mut cases, &format!("{fabscan} --step-deg {{v}}"), "--step-deg", &["imported"]);
+    // … as a further pass of a scan (issue 40): the pass, and a scan folder that is not there.
+    each(&mut cases, &format!("{fabscan} --step-deg 90 --pass {{v}}"), "--pass", &["imported"]);
+    each(&mut cases, "scan --out s --views 2 --resolution 64x48 --pass {v}", "--pass", &["s"]);
     // A scan on the simulated rig: its program's options.
     each(&mut cases, "scan --out s --views {v} --resolution 64x48", "--views", &["s"]);
     each(&mut cases, "scan --out s --views 2 --resolution 64x48 --settle-ms {v}", "--settle-ms", &["s"]);

@@ -3,7 +3,7 @@
 //! and the merged mesh must cover the true surface — its base included, which one upright pass
 //! never sees — within 0.5 % of the object's diagonal, closed and 2-manifold.
 
-use crate::run::scanrig;
+use crate::run::{matrix_pose, scanrig};
 use std::path::Path;
 
 /// Share of `truth`'s surface within `limit` of `mesh` (20,000 area-weighted samples).
@@ -35,17 +35,6 @@ fn scan_and_process(dir: &Path, name: &str, passes: &str, bunny: &Path) -> rig::
     rig::read_mesh(&out.join("processed/mesh.ply")).unwrap().triangulate()
 }
 
-/// A pose from a row-major 4 × 4 JSON array.
-fn pose(rows: &serde_json::Value) -> rig::Isometry3 {
-    let v: Vec<f64> = rows
-        .as_array()
-        .unwrap()
-        .iter()
-        .flat_map(|r| r.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()))
-        .collect();
-    nalgebra::try_convert(nalgebra::Matrix4::from_row_slice(&v)).unwrap()
-}
-
 #[test]
 fn a_bunny_turned_on_its_side_for_a_second_pass_is_aligned_and_its_base_measured() {
     let Some(bunny) = fixtures::mesh("stanford-bunny/reconstruction/bun_zipper_res2.ply") else {
@@ -64,7 +53,7 @@ fn a_bunny_turned_on_its_side_for_a_second_pass_is_aligned_and_its_base_measured
     let truths: serde_json::Value =
         serde_json::from_slice(&std::fs::read(d.path().join("two/truth/passes.json")).unwrap()).unwrap();
     for (f, t) in found.as_array().unwrap().iter().zip(truths["passes"].as_array().unwrap()) {
-        let error = pose(&f["first_from_pass"]) * pose(&t["turntable_from_object"]);
+        let error = matrix_pose(&f["first_from_pass"]) * matrix_pose(&t["turntable_from_object"]);
         let angle = error.rotation.angle().to_degrees();
         let rms = (truth.vertices.iter().map(|p| (error * p - p).norm_squared()).sum::<f64>()
             / truth.vertices.len() as f64)

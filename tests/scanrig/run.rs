@@ -19,13 +19,19 @@ pub fn scanrig(args: &[&dyn AsRef<std::ffi::OsStr>]) -> Output {
 
 /// A pose as `registered.poses.json` and `register --json` write it: `object_from_camera`, row-major 4 × 4.
 pub fn pose_from_json(pose: &serde_json::Value) -> rig::Isometry3 {
-    let rows: Vec<f64> = pose["object_from_camera"]
+    matrix_pose(&pose["object_from_camera"])
+}
+
+/// A rigid motion from a row-major 4 × 4 JSON array (`align --json`'s `pose`, a pass's
+/// `first_from_pass`, `truth/passes.json`).
+pub fn matrix_pose(rows: &serde_json::Value) -> rig::Isometry3 {
+    let v: Vec<f64> = rows
         .as_array()
         .unwrap()
         .iter()
         .flat_map(|r| r.as_array().unwrap().iter().map(|x| x.as_f64().unwrap()))
         .collect();
-    nalgebra::try_convert::<_, rig::Isometry3>(nalgebra::Matrix4::from_row_slice(&rows)).unwrap()
+    nalgebra::try_convert::<_, rig::Isometry3>(nalgebra::Matrix4::from_row_slice(&v)).unwrap()
 }
 
 /// No panic message, internal-error report or Rust backtrace in the output's stderr.
