@@ -116,7 +116,8 @@ pub fn register_passes(
     let mut alignments = Vec::new();
     let mut all = PointCloud::default();
     let mut all_poses = Vec::new();
-    let mut first: Option<(PointCloud, IcpTarget)> = None;
+    // The first pass's points (what every further pass is searched against) and its ICP target.
+    let mut first: Option<(Vec<rig::math::Point3>, IcpTarget)> = None;
     for &p in &passes {
         let mine: Vec<ViewGrid> = views.iter().filter(|v| pass_of(v.view) == p).copied().collect();
         let (mut cloud, mut poses, r) = one_pass(&mine, axis, crop, params)?;
@@ -138,16 +139,9 @@ pub fn register_passes(
                 Isometry3::identity()
             }
             Some((reference, target)) => {
-                let g = align_global(
-                    &cloud.positions,
-                    &reference.positions,
-                    &GlobalParams::for_clouds(
-                        &cloud.positions,
-                        &reference.positions,
-                        None,
-                        GlobalParams::default().seed,
-                    )?,
-                )?;
+                let seed = GlobalParams::default().seed;
+                let search = GlobalParams::for_clouds(&cloud.positions, reference, None, seed)?;
+                let g = align_global(&cloud.positions, reference, &search)?;
                 let fine = refine(&cloud, target, &g);
                 let centre =
                     rig::Aabb::of(&cloud.positions).map_or(rig::Point3::origin(), |b| nalgebra::center(&b.min, &b.max));
@@ -174,9 +168,12 @@ pub fn register_passes(
         }
         all_poses.extend(poses);
         if first.is_none() {
-            let normals = cloud.normals.clone().unwrap_or_default();
-            let target = IcpTarget::new(cloud.positions.clone(), normals, None);
-            first = Some((cloud.clone(), target));
+            // Without normals there is no point-to-plane target: the search's motion stands alone.
+            let target = match &cloud.normals {
+                Some(n) => IcpTarget::new(cloud.positions.clone(), n.clone(), None),
+                None => IcpTarget::new(Vec::new(), Vec::new(), None),
+            };
+            first = Some((cloud.positions.clone(), target));
         }
         append(&mut all, cloud);
     }
