@@ -1000,6 +1000,28 @@ fn align_moves_a_bunny_scan_onto_its_neighbour_and_refuses_a_sphere_unless_force
     let o = scanrig(&[&"align", &d.path("moved.ply"), &d.path("sphere.ply"), &"-o", &d.path("out.ply"), &"--force"]);
     assert!(o.status.success() && stderr(&o).contains("warning: not aligned"), "{o:?}");
     assert_eq!(rig::read_cloud(&d.path("out.ply")).unwrap().len(), 4000);
+    // A cylinder turns about its axis unseen; a cylinder and a sphere are not one object. Each
+    // cylinder sampled anew, as two scans of one are: the same samples would match point for point.
+    let mut rng = fixtures::Rng::new(6);
+    let mut cylinder = || -> Vec<rig::Point3> {
+        (0..4000)
+            .map(|_| {
+                let a = rng.uniform() * std::f64::consts::TAU;
+                rig::Point3::new(30.0 * a.cos(), 30.0 * a.sin(), 120.0 * rng.uniform())
+            })
+            .collect()
+    };
+    let (first, second) = (cylinder(), cylinder());
+    let second_turned = second.iter().map(|p| turned * p).collect();
+    rig::write_cloud(&d.path("cylinder.ply"), &rig::PointCloud::from_positions(first), &Default::default()).unwrap();
+    let turned_cloud = rig::PointCloud::from_positions(second_turned);
+    rig::write_cloud(&d.path("cylinder_turned.ply"), &turned_cloud, &Default::default()).unwrap();
+    for (a, b) in [("cylinder_turned.ply", "cylinder.ply"), ("cylinder.ply", "sphere.ply")] {
+        let o = scanrig(&[&"align", &d.path(a), &d.path(b), &"-o", &d.path("other.ply")]);
+        assert!(!o.status.success() && stderr(&o).contains("could not be aligned"), "{a} onto {b}: {o:?}");
+        assert!(!d.path("other.ply").exists());
+        eprintln!("{a} onto {b}: {}", stderr(&o).lines().last().unwrap_or(""));
+    }
 
     // The real bunny scans (in metres): bun045 onto bun000, judged against bun.conf.
     let (Some(a), Some(b), Some(poses)) =

@@ -357,7 +357,12 @@ pub fn align_global(
         }
     });
     let why = if inliers < params.min_inliers {
-        format!("only {inliers} of {} matches agree (at least {} are needed)", matches.len(), params.min_inliers)
+        format!(
+            "only {inliers} of {} matches agree (at least {} are needed): the local shape tells too little where \
+             it lies (a featureless or symmetric object, or two unrelated clouds?)",
+            matches.len(),
+            params.min_inliers
+        )
     } else if share < params.min_overlap {
         format!("only {:.0} % of the moving cloud lands on the fixed one", 100.0 * share)
     } else if rival_share > 0.8 {
