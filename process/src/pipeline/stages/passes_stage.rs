@@ -1,7 +1,7 @@
 //! Several passes of one object (issue 40): the object scanned, turned over by hand (on its side,
 //! upside down) and scanned again. Within a pass the turntable places the views and registration
 //! refines them ([`super::register`]); between passes nothing is known — the operator put the object
-//! down anew — so each further pass is aligned to the first by its shape
+//! down anew — so each further pass is aligned by its shape to the passes placed before it
 //! ([`crate::register::global`]: local descriptors, a robust search, then ICP), refined by ICP on the
 //! full clouds, and merged into the first pass's object frame. A pass whose alignment is not trusted
 //! (ambiguous, too little overlap) is a result that cannot be right: [`RegisterReport::check`]
@@ -34,7 +34,7 @@ pub struct PassAlignment {
     pub aligned: bool,
     /// Why not, in words (empty when aligned).
     pub why: String,
-    /// Share of the pass's thinned cloud that lands on the first pass's.
+    /// Share of the pass's thinned cloud that lands on the passes placed before it.
     pub overlap: Real,
     /// RMS distance of those points (mm).
     pub rms_mm: Real,
@@ -95,8 +95,9 @@ fn one_pass(
     Ok((cloud, poses, None))
 }
 
-/// Registers a scan of several passes: each pass within itself, then every further pass aligned to
-/// the first by its shape and refined by ICP, all in the first pass's object frame. `pass_of(view)`
+/// Registers a scan of several passes: each pass within itself, then every further pass aligned by
+/// its shape to the trusted passes placed before it and refined by ICP, all in the first pass's
+/// object frame. `pass_of(view)`
 /// gives a view's pass (from 1). Returns the cloud, every view's pose (in that frame) and the report,
 /// whose `passes` says how each pass was placed.
 pub fn register_passes(
@@ -116,29 +117,31 @@ pub fn register_passes(
     let mut alignments = Vec::new();
     let mut all = PointCloud::default();
     let mut all_poses = Vec::new();
-    // The first pass's points (what every further pass is searched against) and its ICP target.
-    let mut first: Option<(Vec<rig::math::Point3>, IcpTarget)> = None;
+    // The passes placed so far and trusted (what the next pass is searched against), with their
+    // ICP target: a pass that overlaps only the second still finds its place.
+    let mut placed: Option<(Vec<rig::math::Point3>, Vec<rig::math::Vector3>, IcpTarget)> = None;
     for &p in &passes {
         let mine: Vec<ViewGrid> = views.iter().filter(|v| pass_of(v.view) == p).copied().collect();
         let (mut cloud, mut poses, r) = one_pass(&mine, axis, crop, params)?;
+        let reference_pass = placed.is_none();
         if let Some(r) = r {
             report.max_rotation_change_deg = report.max_rotation_change_deg.max(r.max_rotation_change_deg);
             report.max_shift_mm = report.max_shift_mm.max(r.max_shift_mm);
             report.sensor_normals += r.sensor_normals;
             report.refused.extend(r.refused);
-            if first.is_none() {
+            if reference_pass {
                 report.refinement = r.refinement;
                 report.lasers = r.lasers;
             }
         }
         let mut a = PassAlignment { pass: p, views: mine.len(), points: cloud.len(), ..Default::default() };
-        let motion = match &first {
+        let motion = match &placed {
             None => {
                 a.aligned = true;
                 a.overlap = 1.0;
                 Isometry3::identity()
             }
-            Some((reference, target)) => {
+            Some((reference, _, target)) => {
                 let seed = GlobalParams::default().seed;
                 let search = GlobalParams::for_clouds(&cloud.positions, reference, None, seed)?;
                 let g = align_global(&cloud.positions, reference, &search)?;
@@ -167,13 +170,21 @@ pub fn register_passes(
             pose.object_from_camera = rows(&(motion * placed));
         }
         all_poses.extend(poses);
-        if first.is_none() {
-            // Without normals there is no point-to-plane target: the search's motion stands alone.
-            let target = match &cloud.normals {
-                Some(n) => IcpTarget::new(cloud.positions.clone(), n.clone(), None),
-                None => IcpTarget::new(Vec::new(), Vec::new(), None),
+        // A trusted pass joins the reference (an untrusted one, merged only because forced, must not
+        // mislead the next search). Without normals there is no point-to-plane target: the search's
+        // motion then stands alone.
+        if alignments.last().is_some_and(|a: &PassAlignment| a.aligned) {
+            let (mut points, mut normals) = placed.take().map(|(p, n, _)| (p, n)).unwrap_or_default();
+            points.extend_from_slice(&cloud.positions);
+            match &cloud.normals {
+                Some(n) if normals.len() + n.len() == points.len() => normals.extend_from_slice(n),
+                _ => normals.clear(),
+            }
+            let target = match normals.len() == points.len() {
+                true => IcpTarget::new(points.clone(), normals.clone(), None),
+                false => IcpTarget::new(Vec::new(), Vec::new(), None),
             };
-            first = Some((cloud.positions.clone(), target));
+            placed = Some((points, normals, target));
         }
         append(&mut all, cloud);
     }
