@@ -385,12 +385,16 @@ fn open_manifest(out: &Path, rig: &Rig, plan: &Plan, resume: bool) -> Result<(Ma
         return Ok((old, offset));
     }
     if plan.pass != passes {
-        return folder(format!(
-            "{} holds {passes} pass(es): --pass {} would leave a gap; the next pass is --pass {}",
-            out.display(),
-            plan.pass,
-            passes + 1
-        ));
+        let last_done = old.views.iter().all(|v| v.complete);
+        let next = match last_done {
+            true => format!("the next pass is --pass {}", passes + 1),
+            false => format!("pass {passes} is unfinished: continue it with --resume --pass {passes}"),
+        };
+        let what = match plan.pass < passes {
+            true => format!("pass {} is already captured", plan.pass),
+            false => format!("--pass {} would leave a gap", plan.pass),
+        };
+        return folder(format!("{} holds {passes} pass(es): {what}; {next}", out.display()));
     }
     if !resume {
         return folder(format!(
@@ -399,12 +403,19 @@ fn open_manifest(out: &Path, rig: &Rig, plan: &Plan, resume: bool) -> Result<(Ma
             if passes > 1 { format!("pass {passes} of a scan") } else { "a scan".into() }
         ));
     }
+    // The pass's views as this plan lays them out, files included: a session writes only the files
+    // of the standard layout, never a name a hand-edited manifest put there.
     let mine = &old.views[offset..];
     let same = old.method == fresh.method
         && old.seed == fresh.seed
         && mine.len() == fresh.views.len()
-        && mine.iter().zip(&fresh.views).all(|(a, b)| {
-            a.angle_deg == b.angle_deg && a.frames.iter().map(|f| f.pattern).eq(b.frames.iter().map(|f| f.pattern))
+        && mine.iter().zip(&fresh.views).enumerate().all(|(k, (a, b))| {
+            let standard = |f: usize, frame: &rig::scan_folder::Frame| {
+                frame.file == rig::scan_folder::ScanLayout::frame(offset + k, f, &frame.pattern)
+            };
+            a.angle_deg == b.angle_deg
+                && a.frames.iter().map(|f| f.pattern).eq(b.frames.iter().map(|f| f.pattern))
+                && a.frames.iter().enumerate().all(|(f, frame)| standard(f, frame))
         });
     if !same {
         return folder(format!(

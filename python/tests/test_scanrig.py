@@ -138,6 +138,8 @@ def test_align_finds_a_bunny_scan_from_any_pose_equal_to_the_cli_and_refuses_a_s
         scanrig.align(np.ascontiguousarray(sphere[:, [1, 0, 2]]), sphere, force=True)
     with pytest.raises(ValueError, match="voxel=0"):
         scanrig.align(sphere, sphere, voxel=0.0)
+    with pytest.raises(scanrig.ScanrigError, match="point 0 of the moving cloud is not finite"):
+        scanrig.align(np.full((100, 3), np.nan), sphere)
 
 
 def test_wrong_arrays_are_python_errors_never_crashes():

@@ -232,11 +232,12 @@ impl Manifest {
         }
         // Passes from 1, each after the one before, none skipped: a view of pass 3 before pass 2's, or
         // a pass 0, is a manifest no capture writes.
-        let mut last = 1;
+        let mut last = 0;
         for (i, v) in m.views.iter().enumerate() {
-            if !(v.pass == last || v.pass == last + 1) || v.pass > MAX_PASSES {
+            if v.pass == 0 || !(v.pass == last || v.pass == last + 1) || v.pass > MAX_PASSES {
+                let after = if last == 0 { "opens the scan".to_string() } else { format!("follows pass {last}") };
                 let msg = format!(
-                    "pass {} follows pass {last}: passes count from 1 up to {MAX_PASSES}, each after the one before",
+                    "pass {} {after}: passes count from 1 up to {MAX_PASSES}, each after the one before",
                     v.pass
                 );
                 return Err(ParseError::new(Location::Field(format!("views[{i}].pass")), Problem::Invalid(msg)));

@@ -264,6 +264,13 @@ pub fn simulate_passes(
     mut progress: impl FnMut(usize, usize),
 ) -> Result<ScanReport, Error> {
     let start = Instant::now();
+    if !(1..=rig::scan_folder::MAX_PASSES as usize).contains(&passes.len()) {
+        return Err(Error::Setup(format!(
+            "a scan has 1 to {} passes (an object has six sides to lie on), not {}",
+            rig::scan_folder::MAX_PASSES,
+            passes.len()
+        )));
+    }
     let patterns = program(cfg, opts.method)?;
     let per_pass = cfg.scan.views as usize;
     let views = per_pass * passes.len();

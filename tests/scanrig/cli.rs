@@ -1068,6 +1068,8 @@ fn a_second_pass_on_the_virtual_rig_matches_the_simulated_passes() {
     }
     let o = run(&["scan", "--settle-ms", "0", "--pass", "4"], &scanned);
     assert!(!o.status.success() && stderr(&o).contains("the next pass is --pass 3"), "{}", stderr(&o));
+    let o = run(&["scan", "--settle-ms", "0", "--pass", "1", "--resume"], &scanned);
+    assert!(!o.status.success() && stderr(&o).contains("pass 1 is already captured"), "{}", stderr(&o));
     let (a, b) = (rig::Manifest::read(&simulated).unwrap(), rig::Manifest::read(&scanned).unwrap());
     assert_eq!(b.passes(), 2);
     assert_eq!(a.views.len(), b.views.len());

@@ -676,10 +676,11 @@ fn passes_and_unseen(r: &ProcessReport, unseen: Option<Unseen>) -> String {
              <th>placed</th><th class=\"num\">overlap</th><th class=\"num\">matches agreeing</th>\
              <th class=\"num\">rival</th><th class=\"num\">ICP refinement</th></tr>",
         );
-        for a in passes {
+        for (k, a) in passes.iter().enumerate() {
             let [r, g, b] = PASS_COLOURS[(a.pass.clamp(1, 6) - 1) as usize];
-            let placed = match (a.pass, a.aligned) {
-                (1, _) => "reference".to_string(),
+            // The first pass processed is the frame the others are placed in.
+            let placed = match (k, a.aligned) {
+                (0, _) => "reference".to_string(),
                 (_, true) => "aligned by its shape".to_string(),
                 (_, false) => format!("<b>not trusted</b>: {}", esc(&a.why)),
             };

@@ -296,17 +296,22 @@ impl Out {
             Scope::Scan => stage_section(decision, seconds, report),
             Scope::View => section(decision, seconds, report),
         };
-        match &decision {
-            Decision::Reuse(rec) => {
-                let report = serde_json::from_value::<R>(rec.report.clone()).ok();
-                let section = report.map(|r| close(&decision, t.elapsed().as_secs_f64(), r));
-                Ok(Stepped { hash: rec.hash, held: None, section })
-            }
-            Decision::Run(_) => {
-                let (held, hash, report) = run(fp)?;
+        // A record whose report no longer reads (written by a build that wrote what this one cannot
+        // read) is made again: reused without its report, the checks made on it would be skipped.
+        let recorded = match &decision {
+            Decision::Reuse(rec) => Some((rec.hash, serde_json::from_value::<R>(rec.report.clone()))),
+            Decision::Run(_) => None,
+        };
+        match recorded {
+            Some((hash, Ok(report))) => {
                 let section = Some(close(&decision, t.elapsed().as_secs_f64(), report));
-                Ok(Stepped { hash, held: Some(held), section })
+                return Ok(Stepped { hash, held: None, section });
             }
+            Some((_, Err(e))) => decision = Decision::Run(format!("its recorded report does not read ({e})")),
+            None => {}
         }
+        let (held, hash, report) = run(fp)?;
+        let section = Some(close(&decision, t.elapsed().as_secs_f64(), report));
+        Ok(Stepped { hash, held: Some(held), section })
     }
 }

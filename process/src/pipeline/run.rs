@@ -93,14 +93,17 @@ pub fn process_scan(
 
     // The scan's steps.
     let crop = CropParams { radius_mm: params.crop.radius_mm.or(rig.platter_radius_mm), ..params.crop };
-    let pass_of = manifest.views.iter().map(|v| v.pass).collect();
-    let scx = ScanCx { o: &o, rig: &rig, method: manifest.method, params, pass_of };
+    // Each view's pass; several passes only where the views processed hold several (a pass begun but
+    // not yet captured, or left out by --views, changes nothing).
+    let pass_of: Vec<u32> = manifest.views.iter().map(|v| v.pass).collect();
+    let several = complete.iter().any(|&v| pass_of[v] != pass_of[complete[0]]);
+    let scx = ScanCx { o: &o, rig: &rig, method: manifest.method, params, pass_of, several };
     if scx.passes() && params.until == Stage::Merge {
         report.warnings.push(format!(
             "{}: this scan has {} passes, each in its own turntable frame until register aligns them: --until {} \
              leaves them apart",
             layout::MERGED,
-            manifest.passes(),
+            complete.iter().map(|&v| scx.pass_of[v]).max().unwrap_or(1),
             params.until.name()
         ));
     }
@@ -400,10 +403,11 @@ pub fn register_processed(
     // Within the working volume the merge of `process` applies (a laser scan's capped at its top).
     let top = (manifest.method == Method::Laser).then(TopParams::default);
     let crop = super::volume::working_volume(&views, Some(&axis), &crop, top.as_ref()).crop(&crop);
+    // Several passes only where the views registered hold several (as `process` decides).
     let pass_of = |v: usize| manifest.views.get(v).map_or(1, |view| view.pass);
-    match manifest.passes() {
-        1 => stages::register(&views, &axis, &crop, params),
-        _ => stages::register_passes(&views, &pass_of, &axis, &crop, params),
+    match views.iter().any(|v| pass_of(v.view) != views.first().map_or(1, |f| pass_of(f.view))) {
+        false => stages::register(&views, &axis, &crop, params),
+        true => stages::register_passes(&views, &pass_of, &axis, &crop, params),
     }
     .map_err(|source| Error::Stage { stage: Stage::Register, source })
 }

@@ -26,12 +26,14 @@ pub(super) struct ScanCx<'a> {
     pub params: &'a ProcessParams,
     /// Each view's pass (from 1), by view number: a scan of several passes is aligned pass to pass.
     pub pass_of: Vec<u32>,
+    /// Whether the views processed belong to several passes.
+    pub several: bool,
 }
 
 impl ScanCx<'_> {
-    /// Whether the scan holds several passes.
+    /// Whether the views processed belong to several passes.
     pub fn passes(&self) -> bool {
-        self.pass_of.iter().any(|&p| p > 1)
+        self.several
     }
 }
 
@@ -165,6 +167,19 @@ pub(super) fn register_step(
             report.skipped.push("register: needs at least two views".into());
             return Ok(false);
         }
+        (_, None) if cx.passes() => {
+            // Fused unaligned, the passes would make two objects of one.
+            return Err(Error::Stage {
+                stage: Stage::Register,
+                source: StageError::Implausible {
+                    what: "this scan has several passes, but the rig has no [turntable] to place each pass's views by"
+                        .into(),
+                    hint: "calibrate the turntable (`scanrig calibrate turntable`), or process each pass alone \
+                           (--views) and align their clouds with `scanrig align`"
+                        .into(),
+                },
+            });
+        }
         (_, None) => {
             report.skipped.push("register: the rig has no [turntable] to start from".into());
             return Ok(false);
@@ -180,7 +195,9 @@ pub(super) fn register_step(
     };
     let mut fp = stages::register_fingerprint(crop, &params.register, rig.turntable.as_ref());
     if cx.passes() {
-        fp.params["passes"] = serde_json::json!(cx.pass_of);
+        // Each registered view's pass: the same grids split into other passes register otherwise.
+        let passes: Vec<(usize, u32)> = outputs.iter().map(|vo| (vo.view, cx.pass_of[vo.view])).collect();
+        fp.params["passes"] = serde_json::json!(passes);
     }
     let fp = grid_inputs(fp, outputs);
     let check = |rr: &stages::RegisterReport| {

@@ -80,6 +80,8 @@ impl GlobalParams {
         seed: u64,
     ) -> Result<GlobalParams, GlobalError> {
         Self::check_voxel(voxel)?;
+        finite(moving, "moving")?;
+        finite(fixed, "fixed")?;
         let diagonal = |pts: &[Point3], which: &'static str| {
             rig::Aabb::of(pts)
                 .map(|b| b.diagonal())
@@ -102,6 +104,14 @@ impl GlobalParams {
             }));
         }
         Ok(GlobalParams { voxel, seed, ..GlobalParams::default() })
+    }
+}
+
+/// Refuses a cloud with a point that is not finite (it would fall in no cell, or in a wrong one).
+fn finite(points: &[Point3], which: &'static str) -> Result<(), GlobalError> {
+    match points.iter().position(|p| !p.coords.iter().all(|c| c.is_finite())) {
+        Some(index) => Err(GlobalError::NonFinite { which, index }),
+        None => Ok(()),
     }
 }
 
@@ -156,6 +166,14 @@ pub enum GlobalError {
         points: usize,
         /// The spacing.
         voxel: Real,
+    },
+    /// A point whose coordinates are not finite.
+    #[error("point {index} of the {which} cloud is not finite (NaN or infinite coordinates)")]
+    NonFinite {
+        /// "moving" or "fixed".
+        which: &'static str,
+        /// The first such point.
+        index: usize,
     },
     /// A cloud without extent (empty, one point, or not finite).
     #[error("the {which} cloud has no extent (no points, one point, or coordinates that are not finite)")]
@@ -319,6 +337,8 @@ pub fn align_global(
     fixed: &[Point3],
     params: &GlobalParams,
 ) -> Result<GlobalAlignment, GlobalError> {
+    finite(moving, "moving")?;
+    finite(fixed, "fixed")?;
     let m = describe(moving, params.voxel, "moving")?;
     let f = describe(fixed, params.voxel, "fixed")?;
     // Matches: descriptors that are each other's nearest.
@@ -340,7 +360,8 @@ pub fn align_global(
             matches: matches.len(),
             inliers: 0,
             overlap: 0.0,
-            rms: Real::NAN,
+            // No motion, no residual: 0 (a NaN would be `null` in the report, which does not read back).
+            rms: 0.0,
             rival_share: 0.0,
             iterations,
         });

@@ -306,6 +306,11 @@ fn a_manifest_of_passes_numbers_on_and_refuses_passes_out_of_order() {
         let e = rig::Manifest::from_json(serde_json::to_string(&bad).unwrap().as_bytes()).unwrap_err().to_string();
         assert!(e.contains(".pass") && e.contains("passes count from 1"), "view {view} pass {pass}: {e}");
     }
+    // A scan whose first view is of pass 2 has no pass 1 to place the others by.
+    let mut second_only = m.clone();
+    second_only.views.iter_mut().for_each(|v| v.pass = 2);
+    let e = rig::Manifest::from_json(serde_json::to_string(&second_only).unwrap().as_bytes()).unwrap_err().to_string();
+    assert!(e.contains("views[0].pass") && e.contains("opens the scan"), "{e}");
 }
 
 /// OFF's per-vertex extras and face colours are named, not dropped in silence.

@@ -134,7 +134,10 @@ pub fn register_passes(
                 report.lasers = r.lasers;
             }
         }
-        let mut a = PassAlignment { pass: p, views: mine.len(), points: cloud.len(), ..Default::default() };
+        // Views, not lines: a laser scan has one entry per view and laser.
+        let mut numbers: Vec<usize> = mine.iter().map(|v| v.view).collect();
+        numbers.dedup();
+        let mut a = PassAlignment { pass: p, views: numbers.len(), points: cloud.len(), ..Default::default() };
         let motion = match &placed {
             None => {
                 a.aligned = true;
