@@ -44,6 +44,10 @@ pub struct PassAlignment {
     pub inliers: usize,
     /// The best other motion's overlap as a share of this one's (near 1: ambiguous).
     pub rival_share: Real,
+    /// A laser scan's pass after the first: how its lasers were aligned with each other (the first
+    /// pass's is the register report's own `lasers`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lasers: Option<crate::register::lasers::LasersReport>,
     /// How far the fine ICP moved the search's result (degrees, mm at the pass's centroid).
     pub refine_deg: Real,
     /// The same, in mm.
@@ -124,6 +128,7 @@ pub fn register_passes(
         let mine: Vec<ViewGrid> = views.iter().filter(|v| pass_of(v.view) == p).copied().collect();
         let (mut cloud, mut poses, r) = one_pass(&mine, axis, crop, params)?;
         let reference_pass = placed.is_none();
+        let mut pass_lasers = None;
         if let Some(r) = r {
             report.max_rotation_change_deg = report.max_rotation_change_deg.max(r.max_rotation_change_deg);
             report.max_shift_mm = report.max_shift_mm.max(r.max_shift_mm);
@@ -132,12 +137,20 @@ pub fn register_passes(
             if reference_pass {
                 report.refinement = r.refinement;
                 report.lasers = r.lasers;
+            } else {
+                pass_lasers = r.lasers;
             }
         }
         // Views, not lines: a laser scan has one entry per view and laser.
         let mut numbers: Vec<usize> = mine.iter().map(|v| v.view).collect();
         numbers.dedup();
-        let mut a = PassAlignment { pass: p, views: numbers.len(), points: cloud.len(), ..Default::default() };
+        let mut a = PassAlignment {
+            pass: p,
+            views: numbers.len(),
+            points: cloud.len(),
+            lasers: pass_lasers,
+            ..Default::default()
+        };
         let motion = match &placed {
             None => {
                 a.aligned = true;

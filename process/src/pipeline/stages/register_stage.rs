@@ -64,7 +64,9 @@ impl RegisterReport {
             }
             unaligned.push(format!("{what}: merged at the best guess (--force)"));
         }
-        let disagreements = unaligned.into_iter().chain(self.lasers.iter().flat_map(LasersReport::disagreements));
+        // Every pass's lasers: a plane that is off shows in each pass a laser scan has.
+        let lasers = self.lasers.iter().chain(self.passes.iter().flatten().filter_map(|a| a.lasers.as_ref()));
+        let disagreements = unaligned.into_iter().chain(lasers.flat_map(LasersReport::disagreements));
         let Some(first) = self.refused.first() else { return Ok(disagreements.collect()) };
         let limit = format!(
             "beyond the {}° and {} mm a turntable can be off (--max-correction-deg, --max-correction-mm)",
