@@ -154,6 +154,19 @@ fn process_reruns_what_a_change_affects_and_reuses_the_rest() {
     assert!(!reused(&r, "merge"));
     let r = process(&scan, &["--until", "merge"]);
     assert!(!reused(&r, "merge") && reason(&r, "merge").contains("crop.radius_mm"), "{r}");
+    // A view's turntable angle corrected in scan.json (a wrong step given at import): the views
+    // stay, what placed them is made again.
+    let manifest_path = scan.join("scan.json");
+    let original = std::fs::read(&manifest_path).unwrap();
+    let mut m = rig::Manifest::read(&scan).unwrap();
+    m.views[1].angle_deg += 0.5;
+    m.write(&scan).unwrap();
+    let r = process(&scan, &["--until", "merge"]);
+    assert!(views_reused(&r, "triangulate") && !reused(&r, "merge"), "{r}");
+    assert!(reason(&r, "merge").contains("angles_deg"), "{}", reason(&r, "merge"));
+    std::fs::write(&manifest_path, original).unwrap();
+    let r = process(&scan, &["--until", "merge"]);
+    assert!(!reused(&r, "merge") && reason(&r, "merge").contains("angles_deg"), "{r}");
     // A shorter run keeps the later stages' sections in report.json.
     let kept = report_file(&scan);
     for stage in SCAN_STAGES {

@@ -86,7 +86,12 @@ fn view_grids(outputs: &[ViewOutput]) -> Vec<ViewGrid<'_>> {
         .collect()
 }
 
-fn grid_inputs(fp: Fingerprint, outputs: &[ViewOutput]) -> Fingerprint {
+/// The views' measurements as inputs, with the turntable angle each is placed at: an angle
+/// corrected in scan.json (a wrong step given at import) moves its view, so nothing placed at the old
+/// angle may be reused.
+fn grid_inputs(mut fp: Fingerprint, outputs: &[ViewOutput]) -> Fingerprint {
+    let angles: std::collections::BTreeMap<usize, Real> = outputs.iter().map(|vo| (vo.view, vo.angle_deg)).collect();
+    fp.params["angles_deg"] = serde_json::json!(angles);
     outputs.iter().fold(fp, |fp, vo| fp.input(&vo.name, vo.hash))
 }
 

@@ -42,7 +42,50 @@ pub struct RegisterReport {
     /// A scan of several passes: how each pass was placed in the first's frame
     /// ([`super::register_passes`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub passes: Option<Vec<super::PassAlignment>>,
+    pub passes: Option<Vec<PassAlignment>>,
+}
+
+/// How a pass was placed in the first pass's object frame.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+pub struct PassAlignment {
+    /// The pass (from 1).
+    pub pass: u32,
+    /// Its views.
+    pub views: usize,
+    /// Its points, registered within the pass.
+    pub points: usize,
+    /// The motion from this pass's turntable frame into the first pass's, row-major 4 × 4.
+    pub first_from_pass: [[Real; 4]; 4],
+    /// Whether the alignment is trusted (see `why` otherwise).
+    pub aligned: bool,
+    /// Why not, in words (empty when aligned).
+    pub why: String,
+    /// Share of the pass's thinned cloud that lands on the passes placed before it.
+    pub overlap: Real,
+    /// RMS distance of those points (mm).
+    pub rms_mm: Real,
+    /// Descriptor matches and those agreeing with the motion.
+    pub matches: usize,
+    /// Matches agreeing with the motion.
+    pub inliers: usize,
+    /// The best other motion's overlap as a share of this one's (near 1: ambiguous).
+    pub rival_share: Real,
+    /// A laser scan's pass after the first: how its lasers were aligned with each other (the first
+    /// pass's is the register report's own `lasers`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lasers: Option<crate::register::lasers::LasersReport>,
+    /// How far the fine ICP moved the search's result (degrees, mm at the pass's centroid).
+    pub refine_deg: Real,
+    /// The same, in mm.
+    pub refine_mm: Real,
+}
+
+impl PassAlignment {
+    /// The motion as an isometry.
+    pub fn motion(&self) -> Isometry3 {
+        let m = nalgebra::Matrix4::<Real>::from_fn(|r, c| self.first_from_pass[r][c]);
+        nalgebra::try_convert(m).unwrap_or_else(Isometry3::identity)
+    }
 }
 
 impl RegisterReport {
