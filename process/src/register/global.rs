@@ -146,7 +146,9 @@ pub struct GlobalAlignment {
 #[non_exhaustive]
 pub enum GlobalError {
     /// A cloud with too few points at the spacing.
-    #[error("the {which} cloud has {points} points at a {voxel} spacing; at least 30 are needed (a smaller --voxel?)")]
+    #[error(
+        "the {which} cloud has {points} points at a {voxel} spacing; at least 30 are needed (a smaller matching spacing: `align --voxel`)"
+    )]
     TooFewPoints {
         /// "moving" or "fixed".
         which: &'static str,
@@ -157,7 +159,7 @@ pub enum GlobalError {
     },
     /// A cloud that keeps too many points at the spacing.
     #[error(
-        "the {which} cloud keeps {points} points at a {voxel} spacing, more than {MAX_THINNED}: give a larger --voxel"
+        "the {which} cloud keeps {points} points at a {voxel} spacing, more than {MAX_THINNED}: a larger matching spacing (`align --voxel`)"
     )]
     TooManyPoints {
         /// "moving" or "fixed".
