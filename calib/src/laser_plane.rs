@@ -132,19 +132,6 @@ fn principal_plane(pts: &[Point3]) -> (Vector3, Vector3, [Real; 2]) {
     (n, c, [eig.eigenvalues[order[1]], eig.eigenvalues[order[2]]])
 }
 
-/// A small deterministic generator for RANSAC's samples (the same input gives the same plane).
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn below(&mut self, n: usize) -> usize {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) % n as u64) as usize
-    }
-}
-
 /// Fits the laser plane to the laser points of all `views`: RANSAC with `tolerance_mm` (Horus and
 /// FabScan use the same two-step fit), then least squares on the inliers, twice. Fails when fewer than
 /// two views contributed, or the points lie on one line (the board never turned).
@@ -168,7 +155,8 @@ pub fn fit_laser_plane(
             "the laser points lie on one line: the board did not turn between the laser views".into(),
         ));
     }
-    let mut rng = SplitMix(0x5eed);
+    // Seeded: the same input gives the same plane.
+    let mut rng = rig::split_mix::SplitMix(0x5eed);
     let (mut best, mut best_count) = (None, 0usize);
     for _ in 0..300 {
         let (a, b, c) = (pts[rng.below(pts.len())], pts[rng.below(pts.len())], pts[rng.below(pts.len())]);

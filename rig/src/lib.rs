@@ -113,6 +113,7 @@ pub use scan_folder::{Manifest, Method};
 /// Meshes and clouds by file extension.
 pub mod memory;
 pub mod mesh_io;
+pub mod split_mix;
 pub mod topology;
 pub mod union_find;
 pub use mesh_io::{

@@ -233,19 +233,6 @@ pub fn rigid_fit(from: &[Point3], to: &[Point3]) -> Option<Isometry3> {
     Some(Isometry3::from_parts(Translation3::from(t), UnitQuaternion::from_rotation_matrix(&r)))
 }
 
-/// A small, seeded generator for the triples (splitmix64).
-struct Draw(u64);
-
-impl Draw {
-    fn below(&mut self, n: usize) -> usize {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) % n as u64) as usize
-    }
-}
-
 /// Whether two motions are the same up to `degrees` and `shift`.
 fn near(a: &Isometry3, b: &Isometry3, degrees: Real, shift: Real) -> bool {
     (a.rotation.inverse() * b.rotation).angle().to_degrees() < degrees
@@ -268,7 +255,7 @@ fn ransac(
     params: &GlobalParams,
 ) -> (Option<Hypothesis>, Option<Hypothesis>, usize) {
     let limit = 1.5 * params.voxel;
-    let mut draw = Draw(params.seed);
+    let mut draw = rig::split_mix::SplitMix(params.seed);
     let (mut best, mut rival): (Option<Hypothesis>, Option<Hypothesis>) = (None, None);
     let mut needed = params.max_iterations;
     let mut it = 0;
