@@ -53,9 +53,8 @@ pub fn run(args: &AlignArgs) -> Result<()> {
         }
         rig::write_cloud(out, &moved, &crate::outputs::write_options_like(&args.fixed)?)?;
     }
-    let matrix = a.pose.to_homogeneous();
-    let rows: [[f64; 4]; 4] = std::array::from_fn(|r| std::array::from_fn(|c| matrix[(r, c)]));
-    let json = Aligned { moving: &args.moving, fixed: &args.fixed, pose: rows, voxel: params.voxel, alignment: &a };
+    let pose = rig::math::rows_of(&a.pose);
+    let json = Aligned { moving: &args.moving, fixed: &args.fixed, pose, voxel: params.voxel, alignment: &a };
     if let Some(path) = &args.pose {
         rig::write_atomic(path, &serde_json::to_vec_pretty(&crate::outputs::versioned(&json))?)?;
     }

@@ -302,8 +302,7 @@ fn align<'py>(
 
 /// A rigid motion as a 4×4 float64 array.
 fn pose_out<'py>(py: Python<'py>, pose: &rig::math::Isometry3) -> Bound<'py, PyArray2<f64>> {
-    let m4 = pose.to_homogeneous();
-    let flat: Vec<f64> = (0..4).flat_map(|i| (0..4).map(move |j| m4[(i, j)])).collect();
+    let flat: Vec<f64> = rig::math::rows_of(pose).concat();
     let out = numpy::ndarray::Array2::from_shape_vec((4, 4), flat).expect("4×4");
     numpy::IntoPyArray::into_pyarray(out, py)
 }

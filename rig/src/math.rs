@@ -24,3 +24,15 @@ pub type Isometry3 = nalgebra::Isometry3<Real>;
 pub type Translation3 = nalgebra::Translation3<Real>;
 /// A rotation as a unit quaternion.
 pub type UnitQuaternion = nalgebra::UnitQuaternion<Real>;
+
+/// A rigid motion as the row-major 4 × 4 matrix that pose files and reports hold (the last row
+/// 0 0 0 1).
+pub fn rows_of(m: &Isometry3) -> [[Real; 4]; 4] {
+    let h = m.to_homogeneous();
+    std::array::from_fn(|r| std::array::from_fn(|c| h[(r, c)]))
+}
+
+/// The rigid motion a row-major 4 × 4 matrix holds; `None` where it is not one (a scale, a shear).
+pub fn isometry_of(rows: &[[Real; 4]; 4]) -> Option<Isometry3> {
+    nalgebra::try_convert(nalgebra::Matrix4::from_fn(|r, c| rows[r][c]))
+}

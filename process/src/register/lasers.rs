@@ -222,11 +222,10 @@ pub fn align_lasers(
         } else {
             (identity, gap_before_mm, overlap_before)
         };
-        let m = pose.to_homogeneous();
         report.lasers.push(LaserAlignment {
             laser: k,
             points: cloud.len(),
-            correction: std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)])),
+            correction: rig::math::rows_of(&pose),
             rotation_deg: pose.rotation.angle().to_degrees(),
             shift_mm: (pose * centroid - centroid).norm(),
             gap_before_mm,

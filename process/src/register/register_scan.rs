@@ -166,12 +166,11 @@ pub fn register_grids(
             let shift_mm = (poses[k] * c - initial[k] * c).norm();
             let refused = !params.tolerance.allows(rotation_change_deg, shift_mm);
             let pose = if refused { initial[k] } else { poses[k] };
-            let m = pose.to_homogeneous();
             let view_pose = ViewPose {
                 view: v,
                 laser: None,
                 angle_deg: angle,
-                object_from_camera: std::array::from_fn(|r| std::array::from_fn(|col| m[(r, col)])),
+                object_from_camera: rig::math::rows_of(&pose),
                 rotation_change_deg,
                 shift_mm,
                 refused,

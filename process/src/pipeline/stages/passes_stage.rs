@@ -15,13 +15,8 @@ use crate::merge::views::{ViewGrid, turntable_pose};
 use crate::register::global::{GlobalAlignment, GlobalParams, align_global};
 use crate::register::icp::{IcpParams, IcpTarget, icp};
 use crate::register::register_scan::{RegisterParams, ViewPose};
-use rig::math::{Isometry3, Real};
+use rig::math::{Isometry3, rows_of};
 use rig::{PointCloud, TurntableAxis};
-
-fn rows(m: &Isometry3) -> [[Real; 4]; 4] {
-    let h = m.to_homogeneous();
-    std::array::from_fn(|r| std::array::from_fn(|c| h[(r, c)]))
-}
 
 /// One pass on its own: registered from its turntable poses where it can be (two views, or two
 /// lasers' lines), else merged as the turntable placed it.
@@ -46,7 +41,7 @@ fn one_pass(
             view: v.view,
             laser: v.laser,
             angle_deg: v.angle_deg,
-            object_from_camera: rows(&turntable_pose(Some(axis), v.angle_deg)),
+            object_from_camera: rows_of(&turntable_pose(Some(axis), v.angle_deg)),
             rotation_change_deg: 0.0,
             shift_mm: 0.0,
             refused: false,
@@ -128,7 +123,7 @@ pub fn register_passes(
                 fine
             }
         };
-        a.first_from_pass = rows(&motion);
+        a.first_from_pass = rows_of(&motion);
         alignments.push(a);
         for q in &mut cloud.positions {
             *q = motion * *q;
@@ -137,9 +132,9 @@ pub fn register_passes(
             *n = motion.rotation * *n;
         }
         for pose in &mut poses {
-            let m = nalgebra::Matrix4::<Real>::from_fn(|r, c| pose.object_from_camera[r][c]);
-            let placed: Isometry3 = nalgebra::try_convert(m).unwrap_or_else(Isometry3::identity);
-            pose.object_from_camera = rows(&(motion * placed));
+            // A pose this stage wrote from an isometry a moment ago: always one.
+            let placed = rig::math::isometry_of(&pose.object_from_camera).unwrap_or_else(Isometry3::identity);
+            pose.object_from_camera = rows_of(&(motion * placed));
         }
         all_poses.extend(poses);
         // A trusted pass joins the reference (an untrusted one, merged only because forced, must not

@@ -80,14 +80,6 @@ pub struct PassAlignment {
     pub refine_mm: Real,
 }
 
-impl PassAlignment {
-    /// The motion as an isometry.
-    pub fn motion(&self) -> Isometry3 {
-        let m = nalgebra::Matrix4::<Real>::from_fn(|r, c| self.first_from_pass[r][c]);
-        nalgebra::try_convert(m).unwrap_or_else(Isometry3::identity)
-    }
-}
-
 impl RegisterReport {
     /// The plausibility check: with refused corrections, an error unless `force`, else one warning
     /// per refused view.
@@ -237,12 +229,11 @@ pub fn register_lasers(
         .zip(&poses)
         .map(|(v, pose)| {
             let a = lr.lasers.iter().find(|a| Some(a.laser) == v.laser);
-            let m = pose.to_homogeneous();
             ViewPose {
                 view: v.view,
                 laser: v.laser,
                 angle_deg: v.angle_deg,
-                object_from_camera: std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)])),
+                object_from_camera: rig::math::rows_of(pose),
                 rotation_change_deg: a.map_or(0.0, |a| a.rotation_deg),
                 shift_mm: a.map_or(0.0, |a| a.shift_mm),
                 refused: refused.iter().any(|r| r.laser.is_some() && r.laser == v.laser),
