@@ -32,6 +32,14 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
     if args.target == CalibrateTarget::Import {
         return import(args, &source);
     }
+    let (report, report_path) = calibrate_into_files(args, &source)?;
+    print(args, &report, &report_path)
+}
+
+/// The calibration, its rig file (when plausible), report and page written; nothing printed on
+/// stdout (the station calls it too, and its stdout may be gone). The report and its path.
+pub fn calibrate_into_files(args: &CalibrateArgs, source: &Path) -> Result<(CalibReport, PathBuf)> {
+    let source = source.to_path_buf();
     let params = RigCalibParams {
         target: match args.target {
             CalibrateTarget::Camera => Target::Only(Step::Camera),
@@ -142,7 +150,7 @@ pub fn run(args: &CalibrateArgs) -> Result<()> {
             args.out.display()
         );
     }
-    print(args, &report, &report_path)
+    Ok((report, report_path))
 }
 
 /// `rig.toml` → `rig.report.json`.

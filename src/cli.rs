@@ -79,6 +79,10 @@ pub enum Command {
     View(ViewArgs),
     /// Decode a folder of structured-light images made by other tools into a projector correspondence map.
     Decode(DecodeArgs),
+    /// The operator's station in the browser: devices and check, live view, calibration, scan with
+    /// the object appearing view by view, processing and the projects under --data (127.0.0.1 only,
+    /// unless --bind names another address; then a token printed at start is needed).
+    Serve(ServeArgs),
     /// Simulate a 36-view scan of the built-in object and process it: the whole pipeline on a virtual rig.
     Demo(DemoArgs),
     /// Simulate a scan on a virtual rig: structured-light or laser frames of a mesh on a turntable, with truth.
@@ -347,7 +351,7 @@ pub struct ConvertArgs {
 }
 
 /// The simulated rig and the object on its platter.
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Debug, Clone)]
 pub struct SimWorld {
     /// Simulator config: a TOML file, or a built-in rig: `structured-light`, `structured-light-640`, `laser`, or
     /// `realistic` (the laser rig in an enclosure, colour JPEG frames, no laser-off frame).
@@ -639,6 +643,41 @@ pub struct ViewArgs {
     /// The port to serve on (0: any free one).
     #[arg(long, default_value_t = 0, requires = "serve")]
     pub port: u16,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ServeArgs {
+    /// The port to listen on (0: any free one; the address is printed).
+    #[arg(long, default_value_t = 8720)]
+    pub port: u16,
+    /// The address to listen on. Anything but a loopback address needs the token printed at start
+    /// (or given with --token) in every request.
+    #[arg(long, default_value = "127.0.0.1")]
+    pub bind: std::net::IpAddr,
+    /// The token for a non-loopback --bind (default: a random one, printed).
+    #[arg(long)]
+    pub token: Option<String>,
+    /// The rig file: scans use it, calibration writes it (default: the simulated rig's, kept in
+    /// DATA/rig.toml once calibrated).
+    #[arg(long)]
+    pub rig: Option<PathBuf>,
+    /// The folder of projects: each scan folder in it is a project.
+    #[arg(long, default_value = "scans")]
+    pub data: PathBuf,
+    /// The calibration board: COLSxROWS inner corners.
+    #[arg(long, default_value = "9x6", value_parser = parse_board)]
+    pub board: BoardArg,
+    /// The board's square size, mm.
+    #[arg(long, default_value_t = 11.0)]
+    pub square: f64,
+    /// Serve for this many seconds, then stop (default: until interrupted; 0 checks the options,
+    /// binds, prints the address and stops — for scripts).
+    #[arg(long)]
+    pub seconds: Option<u64>,
+    /// The virtual rig (the simulator's camera and projector and the virtual turntable, offered as
+    /// devices beside real ones).
+    #[command(flatten)]
+    pub world: SimWorld,
 }
 
 #[derive(clap::Args, Debug)]

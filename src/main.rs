@@ -23,6 +23,8 @@ mod scan_cmd;
 mod scanner_files;
 mod sim_cmd;
 mod stage_args;
+mod station;
+mod virtual_rig;
 
 use clap::Parser;
 use std::process::ExitCode;
@@ -51,6 +53,7 @@ fn main() -> ExitCode {
         cli::Command::Sim(a) => sim_cmd::run(&a),
         cli::Command::Process(a) => process_cmd::run(&a),
         cli::Command::Decode(a) => decode_cmd::run(&a),
+        cli::Command::Serve(a) => station::run(&a),
         cli::Command::Denoise(a) => denoise_cmd::run(&a),
         cli::Command::Align(a) => align_cmd::run(&a),
         cli::Command::Fuse(a) => fuse_cmd::run(&a),

@@ -37,11 +37,22 @@ pub fn run_pipeline(
     out: &Path,
     params: &ProcessParams,
 ) -> Result<(ProcessReport, Option<web::scan_report::ScanPage>)> {
+    run_pipeline_watched(scan, out, params, |_, _, _| {})
+}
+
+/// [`run_pipeline`], telling `watch` each stage's progress too (the station's page shows it).
+pub fn run_pipeline_watched(
+    scan: &Path,
+    out: &Path,
+    params: &ProcessParams,
+    mut watch: impl FnMut(Stage, usize, usize),
+) -> Result<(ProcessReport, Option<web::scan_report::ScanPage>)> {
     let mut progress = Progress::new();
     let mut scene: Option<std::thread::JoinHandle<_>> = None;
     let report = process::process_scan(scan, out, params, |stage: Stage, done, total| {
         let phase = if stage <= Stage::Denoise { "views" } else { stage.name() };
         progress.update(phase, done, total);
+        watch(stage, done, total);
         if stage == Stage::Reconstruct && done == total && params.until > Stage::Reconstruct && scene.is_none() {
             let (scan, out) = (scan.to_path_buf(), out.to_path_buf());
             scene = Some(std::thread::spawn(move || web::scan_report::prepare_scene(&scan, &out)));

@@ -3,106 +3,24 @@
 //! `scanrig turntable`, `scanrig virtual-turntable` and `scanrig camera` for the devices alone.
 
 use crate::cli::{CameraCommand, ScanArgs, TurntableArgs, TurntableCommand, VirtualTurntableArgs};
-use acquire::camera::{Camera, CameraError, PatternOutput, Shot};
-use acquire::virtual_horus::{BoardState, Faults, VirtualBoard};
+use crate::virtual_rig::{self, SimCamera, SimProjector, open_port};
+use acquire::camera::{Camera, PatternOutput};
+use acquire::virtual_horus::{Faults, VirtualBoard};
 use acquire::{HorusOptions, HorusTurntable, Turntable};
-use anyhow::{Context, Result, bail};
-use rig::image::Image8;
-use rig::{Method, Pattern};
-use sim::{Scene, SimConfig, ViewGeometry};
+use anyhow::{Result, bail};
+use rig::Pattern;
+use sim::Scene;
 use std::io::Write;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-
-/// The simulator as a camera: it renders what the virtual board's platter and lasers and the
-/// simulated projector show at the moment of capture, with the simulator's noise for that view and
-/// frame, so a session on the virtual rig records exactly what `scanrig sim` writes.
-struct SimCamera<'a> {
-    cfg: &'a SimConfig,
-    scene: &'a Scene,
-    rays: Vec<rig::Vector3>,
-    program: Vec<Pattern>,
-    lights: Vec<sim::light::PatternLight>,
-    seed: u64,
-    board: Arc<Mutex<BoardState>>,
-    shown: Arc<Mutex<Option<Pattern>>>,
-    geometry: Option<(f64, ViewGeometry)>,
-}
-
-impl Camera for SimCamera<'_> {
-    fn size(&self) -> (u32, u32) {
-        (self.cfg.rig.camera.width, self.cfg.rig.camera.height)
-    }
-
-    fn capture(&mut self, shot: &Shot) -> Result<Image8, CameraError> {
-        let board = self.board.lock().expect("board state").clone();
-        // What is lit now: the projected pattern, else the lasers that are on.
-        let showing = match *self.shown.lock().expect("projector state") {
-            Some(p) => p,
-            None => match board.lasers.iter().position(|&on| on) {
-                Some(index) => Pattern::Laser { index },
-                None => Pattern::LaserOff,
-            },
-        };
-        // Dark, with the work light on: the texture shot (the work light is not under the session's
-        // control, so the shot says it).
-        let showing =
-            if shot.pattern == Pattern::Texture && showing == Pattern::LaserOff { Pattern::Texture } else { showing };
-        let k = self.program.iter().position(|&p| p == showing).ok_or_else(|| {
-            CameraError::Frame(format!("the simulated rig cannot show {showing:?} (not in its capture program)"))
-        })?;
-        let angle = board.angle_deg;
-        if self.geometry.as_ref().is_none_or(|(a, _)| *a != angle) {
-            let pose = sim::scan::view_pose(self.cfg, angle);
-            self.geometry = Some((angle, sim::view_geometry(self.scene, self.cfg, &self.rays, &pose)));
-        }
-        let g = &self.geometry.as_ref().expect("just computed").1;
-        Ok(sim::render_frame(g, self.cfg, &self.lights[k], sim::render::frame_key(self.seed, shot.view, shot.frame)))
-    }
-}
-
-/// The simulated projector: what it shows, the simulator camera sees.
-struct SimProjector(Arc<Mutex<Option<Pattern>>>);
-
-impl PatternOutput for SimProjector {
-    fn show(&mut self, pattern: Option<Pattern>) -> Result<(), CameraError> {
-        *self.0.lock().expect("projector state") = pattern;
-        Ok(())
-    }
-}
-
-fn open_port(port: &str) -> Result<Box<dyn serialport::SerialPort>> {
-    serialport::new(port, 115_200)
-        .timeout(Duration::from_millis(100))
-        .open()
-        .with_context(|| format!("opening the turntable's serial port {port}"))
-}
 
 pub fn scan(args: &ScanArgs) -> Result<()> {
     let cfg = crate::sim_cmd::world_config(&args.world)?;
     let rig = match &args.rig {
         Some(p) => rig::Rig::read(p)?,
-        None => {
-            let mut r = cfg.rig.clone();
-            if cfg.rig.turntable.is_some() && cfg.scene.platter_radius_mm > 0.0 {
-                r.platter_radius_mm = Some(cfg.scene.platter_radius_mm);
-            }
-            r
-        }
+        None => virtual_rig::default_rig(&cfg),
     };
-    // The capture program is the rig's: its projector's patterns (with the config's phase sets), else
-    // one frame per laser — the frames then decode against the rig recorded beside them.
-    let (method, program) = match &rig.projector {
-        Some(p) => (
-            Method::StructuredLight,
-            rig::patterns::structured_light_sequence(p.lens.width, p.lens.height, &cfg.scan.phase),
-        ),
-        None if !rig.lasers.is_empty() => (Method::Laser, rig::patterns::laser_sequence(rig.lasers.len())),
-        None => bail!("the rig has neither a projector nor lasers: nothing to scan with"),
-    };
-    // Each view's colour: a texture frame under the work light, as the simulator's config asks.
-    let program: Vec<rig::Pattern> =
-        program.into_iter().chain(cfg.scan.texture.then_some(rig::Pattern::Texture)).collect();
+    let (method, program) = virtual_rig::capture_program(&rig, &cfg)?;
     let mut plan = acquire::Plan::full_turn(method, program.clone(), cfg.scan.views as usize);
     plan.seed = Some(args.world.seed);
     plan.pass = args.pass;

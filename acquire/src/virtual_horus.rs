@@ -88,6 +88,17 @@ impl VirtualBoard {
         Ok(VirtualBoard { port, state, stop, thread: Some(thread), _slave: slave })
     }
 
+    /// Pulls the cable out now: the board stops answering and its end of the line hangs up, as
+    /// [`Faults::unplug_after`] does at a given command (for faults injected by hand, mid-scan).
+    pub fn unplug(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+
+    /// True once [`VirtualBoard::unplug`] pulled the cable.
+    pub fn unplugged(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
     /// A copy of the board's state.
     pub fn snapshot(&self) -> BoardState {
         self.state.lock().expect("board state").clone()

@@ -186,6 +186,28 @@ pub fn standing_on_platter(board: &Board) -> Isometry3 {
     Isometry3::from_parts(Translation3::new(-c.x, -STAND_OFFSET_MM, height), rot)
 }
 
+/// The scene of a board capture: held at `held` (camera_from_board) in front of the camera, or, for
+/// `None`, standing on the platter ([`standing_on_platter`]) and turning with it.
+pub fn board_scene(cfg: &SimConfig, board: &Board, held: Option<Isometry3>) -> Scene {
+    let mut scene = Scene::default();
+    // A board at fixed poses is held up in front of the camera, away from the turntable: with
+    // the platter in the scene it hid the lower corners of most default poses.
+    if cfg.scene.platter_radius_mm > 0.0 && cfg.rig.turntable.is_some() && held.is_none() {
+        scene.parts.push(Part {
+            kind: PartKind::Platter,
+            surface: Box::new(crate::surface::Disc { radius: cfg.scene.platter_radius_mm }),
+            pose: Isometry3::identity(),
+            mount: Mount::Turntable,
+            albedo: Albedo::Constant(cfg.scene.platter_albedo),
+        });
+    }
+    match held {
+        Some(p) => scene.parts.push(board.part(p, Mount::Fixed)),
+        None => scene.parts.push(board.part(standing_on_platter(board), Mount::Turntable)),
+    }
+    scene
+}
+
 /// Simulates calibration captures of `board` into `out`: one view per pose (fixed poses without the
 /// platter, which a hand-held board is away from), frames as the rig's
 /// program (structured light if it has a projector, then laser-off and one frame per laser), and in
@@ -218,32 +240,16 @@ pub fn simulate_board(
     let mut report = ScanReport { views: angles.len(), ..Default::default() };
     for (v, (&angle, fixed)) in angles.iter().zip(&fixed).enumerate() {
         let t0 = Instant::now();
-        let mut scene = Scene::default();
-        // A board at fixed poses is held up in front of the camera, away from the turntable: with
-        // the platter in the scene it hid the lower corners of most default poses.
-        if cfg.scene.platter_radius_mm > 0.0 && cfg.rig.turntable.is_some() && fixed.is_none() {
-            scene.parts.push(Part {
-                kind: PartKind::Platter,
-                surface: Box::new(crate::surface::Disc { radius: cfg.scene.platter_radius_mm }),
-                pose: Isometry3::identity(),
-                mount: Mount::Turntable,
-                albedo: Albedo::Constant(cfg.scene.platter_albedo),
-            });
-        }
+        let mut scene = board_scene(cfg, board, *fixed);
         let view_pose = crate::scan::view_pose(cfg, angle);
         let camera_from_board = match fixed {
             Some(p) => {
-                scene.parts.push(board.part(*p, Mount::Fixed));
                 if let Some(Some(cover)) = poses.covers.get(v) {
                     scene.parts.push(cover.part(board, *p));
                 }
                 *p
             }
-            None => {
-                let on_platter = standing_on_platter(board);
-                scene.parts.push(board.part(on_platter, Mount::Turntable));
-                view_pose * on_platter
-            }
+            None => view_pose * standing_on_platter(board),
         };
         let g = view_geometry(&scene, cfg, &rays, &view_pose);
         let t1 = Instant::now();

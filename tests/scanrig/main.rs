@@ -16,5 +16,6 @@ mod run;
 mod scanner_files;
 mod shared_demo;
 mod stages;
+mod station;
 mod trusted_inputs;
 mod user_files;

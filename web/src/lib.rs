@@ -21,6 +21,7 @@ pub mod plot;
 pub mod scan_report;
 pub mod scene;
 pub mod serve;
+pub mod station_page;
 pub mod view_page;
 
 /// Why a page could not be made.

@@ -1,0 +1,63 @@
+//! The station's one event stream (server-sent events): progress, each view as it lands, faults.
+//! Every open page gets every event; a page that went away is dropped at the next event.
+
+use serde_json::Value;
+use std::io::Write;
+use std::sync::Mutex;
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
+use std::time::{Duration, SystemTime, UNIX_EPOCH};
+
+/// Milliseconds since the Unix epoch: the time stamps events carry, so a page on the same machine
+/// measures how long an event took to reach its screen.
+pub fn now_ms() -> f64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map_or(0.0, |d| d.as_secs_f64() * 1e3)
+}
+
+/// Subscribers, and the last events of each kind a page that opens late needs (the job's state).
+#[derive(Default)]
+pub struct Bus {
+    subscribers: Mutex<Vec<Sender<String>>>,
+    last_state: Mutex<Option<String>>,
+}
+
+impl Bus {
+    /// Sends `data` as an event of `kind` to every open page.
+    pub fn send(&self, kind: &str, data: Value) {
+        let text = format!("event: {kind}\ndata: {data}\n\n");
+        if kind == "state" {
+            *self.last_state.lock().unwrap_or_else(|e| e.into_inner()) = Some(text.clone());
+        }
+        self.subscribers.lock().unwrap_or_else(|e| e.into_inner()).retain(|s| s.send(text.clone()).is_ok());
+    }
+
+    /// A new subscriber, given the last state event first.
+    pub fn subscribe(&self) -> Receiver<String> {
+        let (tx, rx) = channel();
+        if let Some(s) = self.last_state.lock().unwrap_or_else(|e| e.into_inner()).clone() {
+            let _ = tx.send(s);
+        }
+        self.subscribers.lock().unwrap_or_else(|e| e.into_inner()).push(tx);
+        rx
+    }
+}
+
+/// Streams events to one page until it goes away: the response head, then each event as it comes
+/// (flushed at once: a buffered event would arrive late), and a comment every 5 s so proxies and
+/// the browser keep the connection and a page that went away is noticed (its control released).
+pub fn stream(mut out: Box<dyn Write + Send>, events: Receiver<String>) {
+    let head = "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n\
+                X-Content-Type-Options: nosniff\r\nConnection: close\r\n\r\nretry: 1000\n\n";
+    if out.write_all(head.as_bytes()).and_then(|_| out.flush()).is_err() {
+        return;
+    }
+    loop {
+        let text = match events.recv_timeout(Duration::from_secs(5)) {
+            Ok(t) => t,
+            Err(RecvTimeoutError::Timeout) => ": still here\n\n".into(),
+            Err(RecvTimeoutError::Disconnected) => return,
+        };
+        if out.write_all(text.as_bytes()).and_then(|_| out.flush()).is_err() {
+            return;
+        }
+    }
+}

@@ -1,0 +1,213 @@
+//! A scan from the station: the capture session `scanrig scan` runs, into a project under `--data`,
+//! and each view decoded and triangulated as it lands (the `process` pipeline's own view stages,
+//! on that view alone) and sent to the page's 3D view with its quality badge. A stop, a fault or a
+//! cancel keeps every complete view; starting the scan again resumes it.
+
+use super::devices::CameraChoice;
+use super::events::now_ms;
+use super::{Station, projects};
+use crate::virtual_rig::{SimCamera, SimProjector, capture_program};
+use acquire::camera::{Camera, PatternOutput};
+use anyhow::{Context, Result, bail};
+use process::pipeline::layout::Layout;
+use process::{ProcessParams, Stage};
+use serde_json::{Value, json};
+use std::path::Path;
+use std::sync::mpsc::channel;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// Points a view sends to the page's 3D view at most (the page shows the whole cloud after
+/// processing; live, a thinned view is enough to see coverage grow).
+const LIVE_POINTS: usize = 4000;
+
+/// The project and view count of a scan request `{project, views}`.
+pub fn request(st: &Station, b: &Value) -> Result<(String, usize), String> {
+    let project = projects::name(b)?;
+    let views = match &b["views"] {
+        Value::Null => st.cfg.scan.views as usize,
+        v => match v.as_u64() {
+            Some(n @ 1..=3600) => n as usize,
+            _ => return Err(format!("views: a whole number from 1 to 3600, got {v}")),
+        },
+    };
+    Ok((project, views))
+}
+
+/// Runs (or resumes) the scan of `project` with `views` views.
+pub fn run(st: &Arc<Station>, project: &str, views: usize) -> Result<()> {
+    let dir = st.data.join(project);
+    let rig = st.rig()?;
+    let (method, program) = capture_program(&rig, &st.cfg)?;
+    // The project folder is the job's own: it reads and rewrites its manifest, and writes
+    // processed/ inside it.
+    rig::run_files::workspace(&dir)?;
+    let resume = dir.join("scan.json").is_file();
+    if resume {
+        let m = rig::Manifest::read(&dir)?;
+        if m.views.len() != views || m.views.first().is_some_and(|v| v.frames.len() != program.len()) {
+            bail!(
+                "{project} holds a scan of {} views with other frames; resume it with {} views or choose another project name",
+                m.views.len(),
+                m.views.len()
+            );
+        }
+    }
+    let mut plan = acquire::Plan::full_turn(method, program.clone(), views);
+    plan.seed = Some(st.world.seed);
+    let mut link = st.devices.take()?;
+    let virtual_board = link.board.is_some();
+    plan.settle = if virtual_board { Duration::ZERO } else { Duration::from_millis(200) };
+    st.bus.send("scan", json!({"project": project, "state": "running", "views": views, "resumed": resume}));
+
+    // The object as the virtual rig shows it.
+    let size = st.world.size.unwrap_or(st.cfg.scene.object_size_mm);
+    let (object, albedo) =
+        crate::sim_cmd::object_on_platter(&st.cfg, st.world.mesh.as_deref(), size, st.world.up, rig::Vector3::zeros())?;
+    let scene = sim::Scene::on_turntable(&st.cfg, &object, albedo);
+    let shown = Arc::new(Mutex::new(None));
+    let mut projector = SimProjector(shown.clone());
+    let mut camera: Box<dyn Camera> = match st.devices.camera() {
+        CameraChoice::Folder(d) => {
+            let mut replay = acquire::FolderCamera::open(&d)?;
+            if let Ok(m) = rig::Manifest::read(&dir) {
+                replay.skip(m.views.iter().filter(|v| v.complete).count() * program.len());
+            }
+            Box::new(replay)
+        }
+        CameraChoice::Simulator => {
+            let Some(board) = &link.board else { bail!("the simulator camera needs the virtual turntable") };
+            Box::new(SimCamera {
+                cfg: &st.cfg,
+                scene: &scene,
+                rays: sim::pixel_rays(&st.cfg.rig.camera),
+                lights: sim::scan::lights_for(&st.cfg, &program),
+                program: program.clone(),
+                seed: st.world.seed,
+                board: board.state.clone(),
+                shown: shown.clone(),
+                geometry: None,
+            })
+        }
+    };
+
+    // Each view, once on disk, goes to the live worker: decoded, triangulated and sent while the
+    // next one is captured.
+    let (views_tx, views_rx) = channel::<(usize, f64)>();
+    let live = {
+        let (st, dir, rig) = (st.clone(), dir.clone(), rig.clone());
+        std::thread::spawn(move || {
+            for (view, captured) in views_rx {
+                if let Err(e) = show_view(&st, &dir, &rig, view, captured) {
+                    st.bus.send("view-failed", json!({"view": view, "message": format!("{e:#}")}));
+                }
+            }
+        })
+    };
+    // A resumed scan's views so far, shown again (no capture time: they are not live).
+    if resume && let Ok(m) = rig::Manifest::read(&dir) {
+        for v in (0..m.views.len()).filter(|&v| m.views[v].complete) {
+            let _ = views_tx.send((v, f64::NAN));
+        }
+    }
+    let started_at = std::time::Instant::now();
+    let bus = &st.bus;
+    let result = {
+        let devices = acquire::Devices {
+            turntable: &mut link.turntable,
+            camera: camera.as_mut(),
+            projector: &mut projector as &mut dyn PatternOutput,
+        };
+        acquire::session::run(&dir, &rig, &plan, resume, devices, |done, total, eta| {
+            let t = now_ms();
+            bus.send(
+                "captured",
+                json!({"view": done - 1, "done": done, "total": total, "at_ms": t,
+                       "eta_s": eta.map(|d| d.as_secs_f64()), "elapsed_s": started_at.elapsed().as_secs_f64()}),
+            );
+            let _ = views_tx.send((done - 1, t));
+        })
+    };
+    drop(views_tx);
+    let _ = live.join();
+    st.devices.give_back(link);
+    match result {
+        Ok(r) => {
+            st.bus.send(
+                "scan",
+                json!({"project": project, "state": "complete", "complete": r.complete, "total": r.total}),
+            );
+            Ok(())
+        }
+        Err(acquire::session::SessionError::Stopped { complete, total, .. }) => {
+            st.bus.send(
+                "scan",
+                json!({"project": project, "state": "stopped", "complete": complete, "total": total,
+                "message": format!("stopped: {complete} of {total} views are kept; Start continues the scan")}),
+            );
+            Ok(())
+        }
+        Err(e) => {
+            let m = rig::Manifest::read(&dir).ok();
+            let complete = m.as_ref().map_or(0, |m| m.views.iter().filter(|v| v.complete).count());
+            st.bus.send(
+                "scan",
+                json!({"project": project, "state": "failed", "complete": complete, "total": views,
+                "message": format!("{e}")}),
+            );
+            Err(anyhow::Error::new(e)
+                .context(format!("scanning {project} (every complete view is kept; Start resumes)")))
+        }
+    }
+}
+
+/// Decodes and triangulates `view` of the scan in `dir` (the pipeline's view stages, that view
+/// only, into `dir/processed` where `process` reuses them) and sends its points, in the object's
+/// frame, with its badge.
+fn show_view(st: &Station, dir: &Path, rig: &rig::Rig, view: usize, captured_ms: f64) -> Result<()> {
+    let out = dir.join("processed");
+    let params = ProcessParams { until: Stage::Triangulate, views: Some(vec![view]), ..ProcessParams::default() };
+    let report = process::process_scan(dir, &out, &params, |_, _, _| {}).context("decoding the view")?;
+    let m = rig::Manifest::read(dir)?;
+    let angle = m.views.get(view).map_or(0.0, |v| v.angle_deg);
+    let v = report.views.iter().find(|r| r.view == view);
+    let object_from_camera = rig.turntable.map(|t| t.object_from_camera(angle));
+    let mut points = Vec::new();
+    let grid_path = Layout::new(&out).path(&Layout::grid(view));
+    if grid_path.is_file() {
+        let cloud = rig::ply::read_range_grid(&grid_path)?.to_point_cloud();
+        let step = cloud.positions.len().div_ceil(LIVE_POINTS).max(1);
+        for p in cloud.positions.iter().step_by(step) {
+            let q = object_from_camera.map_or(*p, |t| t * p);
+            points.extend([q.x, q.y, q.z].map(|c| (c * 10.0).round() / 10.0));
+        }
+    } else {
+        for k in 0..rig.lasers.len() {
+            let path = Layout::new(&out).path(&Layout::laser_grid(view, k));
+            if let Ok(s) = rig::ply::read_cloud(&path) {
+                let step = s.positions.len().div_ceil(LIVE_POINTS).max(1);
+                for p in s.positions.iter().step_by(step) {
+                    let q = object_from_camera.map_or(*p, |t| t * p);
+                    points.extend([q.x, q.y, q.z].map(|c| (c * 10.0).round() / 10.0));
+                }
+            }
+        }
+    }
+    let (decoded, lit) = v.and_then(|v| v.decode.as_ref()).map_or((0, 0), |d| (d.report.decoded, d.report.lit));
+    let warnings: Vec<&String> = report.warnings.iter().collect();
+    st.bus.send(
+        "view",
+        json!({
+            "view": view,
+            "angle_deg": angle,
+            "captured_ms": captured_ms.is_finite().then_some(captured_ms),
+            "points": points,
+            "badge": {
+                "points": v.map_or(0, |v| v.points),
+                "coverage": if lit > 0 { decoded as f64 / lit as f64 } else { 0.0 },
+                "warnings": warnings,
+            },
+        }),
+    );
+    Ok(())
+}
