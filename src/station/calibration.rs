@@ -175,7 +175,8 @@ fn take_one(
     index: usize,
 ) -> Result<()> {
     let shown = Arc::new(Mutex::new(None));
-    let mut camera = sim_camera(st, scene, program, link, &shown)?;
+    let cfg = st.camera_config();
+    let mut camera = sim_camera(st, &cfg, scene, program, link, &shown)?;
     // Each capture its own noise, as separate exposures have.
     camera.seed = st.world.seed.wrapping_add(index as u64 + 1);
     let mut projector = crate::virtual_rig::SimProjector(shown.clone());

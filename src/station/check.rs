@@ -72,7 +72,8 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
     let scene = sim::board::board_scene(&st.cfg, &board, None);
     let program = check_program(rig);
     let shown = Arc::new(Mutex::new(None));
-    let mut camera = sim_camera(st, &scene, &program, link, &shown)?;
+    let cfg = st.camera_config();
+    let mut camera = sim_camera(st, &cfg, &scene, &program, link, &shown)?;
     let t = &mut link.turntable;
     t.motor(true)?;
     t.set_speed(200.0)?;

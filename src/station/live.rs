@@ -19,9 +19,36 @@ pub const SATURATED: u8 = 250;
 /// A laser row counts as lit where the laser frame exceeds the dark one by this much.
 const LINE_CONTRAST: i16 = 30;
 
-/// The simulator as the camera for `scene`, watching `link`'s virtual board and `shown`'s pattern.
+/// The virtual camera's exposure, from `{exposure}`: the simulator's sensor exposure, 0.01 to 10.
+pub fn set_exposure(st: &Station, b: &serde_json::Value) -> Result<serde_json::Value, String> {
+    match b["exposure"].as_f64() {
+        Some(e) if (0.01..=10.0).contains(&e) => {
+            *lock(&st.exposure) = e;
+            st.bus.send("state", st.state_json());
+            Ok(json!({ "exposure": e }))
+        }
+        _ => Err(format!("exposure: a number from 0.01 to 10, got {}", b["exposure"])),
+    }
+}
+
+/// What the projector shows by hand, from `{pattern}`: white, black or off.
+pub fn set_projector(st: &Station, b: &serde_json::Value) -> Result<serde_json::Value, String> {
+    let p = match b["pattern"].as_str() {
+        Some("white") => Some(Pattern::White),
+        Some("black") => Some(Pattern::Black),
+        Some("off") => None,
+        _ => return Err(format!("pattern: white, black or off, got {}", b["pattern"])),
+    };
+    *lock(&st.projector) = p;
+    st.bus.send("state", st.state_json());
+    Ok(json!({ "projector": b["pattern"] }))
+}
+
+/// The simulator as the camera for `scene` with `cfg`'s sensor ([`Station::camera_config`]),
+/// watching `link`'s virtual board and `shown`'s pattern.
 pub fn sim_camera<'a>(
-    st: &'a Station,
+    st: &Station,
+    cfg: &'a sim::SimConfig,
     scene: &'a sim::Scene,
     program: &[Pattern],
     link: &Link,
@@ -29,10 +56,10 @@ pub fn sim_camera<'a>(
 ) -> Result<SimCamera<'a>> {
     let Some(board) = &link.board else { bail!("the simulator camera watches the virtual turntable only") };
     Ok(SimCamera {
-        cfg: &st.cfg,
+        cfg,
         scene,
-        rays: sim::pixel_rays(&st.cfg.rig.camera),
-        lights: sim::scan::lights_for(&st.cfg, program),
+        rays: sim::pixel_rays(&cfg.rig.camera),
+        lights: sim::scan::lights_for(cfg, program),
         program: program.to_vec(),
         seed: st.world.seed,
         board: board.state.clone(),
@@ -75,7 +102,7 @@ pub fn saturated(img: &Image8) -> f64 {
     n as f64 / (img.data.len() / c).max(1) as f64
 }
 
-/// `GET /api/live?show=raw|laser|decode|corners`: the frame as a PNG data URL, with notes.
+/// `GET /api/live?show=raw|colour|laser|decode|corners`: the frame as a PNG data URL, with notes.
 pub fn frame(st: &Station, show: &str) -> ResponseBox {
     if lock(&st.job).is_some() {
         return super::error(409, "a job uses the camera now; the live view comes back when it ends");
@@ -116,15 +143,26 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
             let p = rig.projector.as_ref().ok_or_else(|| anyhow::anyhow!("the rig has no projector to decode"))?;
             program = rig::patterns::structured_light_sequence(p.lens.width, p.lens.height, &st.cfg.scan.phase);
         }
-        let mut camera = sim_camera(st, scene, &program, &link, &shown)?;
+        if show == "colour" {
+            program.push(Pattern::Texture);
+        }
+        let cfg = st.camera_config();
+        let mut camera = sim_camera(st, &cfg, scene, &program, &link, &shown)?;
         let lasers = rig.lasers.len();
-        let lit = if rig.projector.is_some() { Pattern::White } else { Pattern::LaserOff };
+        // The raw frame shows what the projector was set to by hand (lit, dark or off).
+        let manual = if rig.projector.is_some() { *lock(&st.projector) } else { None };
+        let lit = match show {
+            "colour" => Pattern::Texture,
+            "raw" => manual.unwrap_or(Pattern::LaserOff),
+            _ if rig.projector.is_some() => Pattern::White,
+            _ => Pattern::LaserOff,
+        };
         let t = &mut link.turntable;
         let raw = shoot(&mut camera, t, &shown, lasers, lit)?;
         let sat = saturated(&raw);
         let mut note = String::new();
         let picture = match show {
-            "raw" => web::picture::to_rgb(&raw),
+            "raw" | "colour" => web::picture::to_rgb(&raw),
             "laser" => {
                 if lasers == 0 {
                     bail!("the rig has no lasers");
@@ -169,7 +207,7 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
                 }
                 img
             }
-            other => bail!("show: {other:?} is none of raw, laser, decode, corners"),
+            other => bail!("show: {other:?} is none of raw, colour, laser, decode, corners"),
         };
         *lock(&shown) = None;
         Ok(json!({

@@ -78,6 +78,10 @@ pub struct Station {
     pub devices: devices::Devices,
     /// The calibration in progress.
     pub calibration: Mutex<calibration::Wizard>,
+    /// The virtual camera's exposure (the simulator's `[sensor] exposure`), set from the live view.
+    pub exposure: Mutex<f64>,
+    /// What the operator set the projector to show by hand (`None`: off); the raw live frame shows it.
+    pub projector: Mutex<Option<rig::Pattern>>,
 }
 
 /// Locks, going on with the data when another thread panicked holding it (every state here stays
@@ -93,6 +97,13 @@ impl Station {
             return rig::Rig::read(&self.rig_path).with_context(|| format!("reading {}", self.rig_path.display()));
         }
         Ok(crate::virtual_rig::default_rig(&self.cfg))
+    }
+
+    /// The simulator's config with the exposure set now: the virtual camera's settings.
+    pub fn camera_config(&self) -> SimConfig {
+        let mut cfg = self.cfg.clone();
+        cfg.sensor.exposure = *lock(&self.exposure);
+        cfg
     }
 
     /// Starts `kind` on a thread of its own unless a job runs; the thread's error is said on the
@@ -147,6 +158,8 @@ impl Station {
                 "calibrated": self.rig_path.is_file(),
             },
             "board": format!("{}x{}", self.board.cols, self.board.rows),
+            "exposure": *lock(&self.exposure),
+            "projector": lock(&self.projector).map(|p| p.name()),
             "views": self.cfg.scan.views,
             "data": self.data.display().to_string(),
         })
@@ -249,6 +262,8 @@ pub fn run(args: &ServeArgs) -> Result<()> {
         data,
         rig_path,
         world: args.world.clone(),
+        exposure: Mutex::new(cfg.sensor.exposure),
+        projector: Mutex::new(Some(rig::Pattern::White)),
         cfg,
         board: args.board,
         square: args.square,
@@ -411,6 +426,8 @@ fn post(st: &Arc<Station>, path: &str, b: &Value) -> ResponseBox {
         "/api/devices" => done(st.devices.choose(b).map(|_| st.state_json())),
         "/api/check" => started(st.start_job("check", None, check::run)),
         "/api/turntable" => done(devices::manual(st, b)),
+        "/api/camera" => done(live::set_exposure(st, b)),
+        "/api/projector" => done(live::set_projector(st, b)),
         "/api/fault/unplug" => done(st.devices.unplug().map(|_| json!({ "unplugged": true }))),
         "/api/scan" => match scan_job::request(st, b) {
             Ok((project, views)) => {

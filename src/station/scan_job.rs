@@ -67,6 +67,7 @@ pub fn run(st: &Arc<Station>, project: &str, views: usize) -> Result<()> {
     let scene = sim::Scene::on_turntable(&st.cfg, &object, albedo);
     let shown = Arc::new(Mutex::new(None));
     let mut projector = SimProjector(shown.clone());
+    let cfg = st.camera_config();
     let mut camera: Box<dyn Camera> = match st.devices.camera() {
         CameraChoice::Folder(d) => {
             let mut replay = acquire::FolderCamera::open(&d)?;
@@ -78,10 +79,10 @@ pub fn run(st: &Arc<Station>, project: &str, views: usize) -> Result<()> {
         CameraChoice::Simulator => {
             let Some(board) = &link.board else { bail!("the simulator camera needs the virtual turntable") };
             Box::new(SimCamera {
-                cfg: &st.cfg,
+                cfg: &cfg,
                 scene: &scene,
-                rays: sim::pixel_rays(&st.cfg.rig.camera),
-                lights: sim::scan::lights_for(&st.cfg, &program),
+                rays: sim::pixel_rays(&cfg.rig.camera),
+                lights: sim::scan::lights_for(&cfg, &program),
                 program: program.clone(),
                 seed: st.world.seed,
                 board: board.state.clone(),

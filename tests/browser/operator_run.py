@@ -127,9 +127,20 @@ def run(browser, args, summary):
 
     # Live view: the decoded map, then the board's corners.
     tab(operator, "live")
+    # The exposure up, the raw frame; then back, and the decoded map.
+    exposure = operator.input_value("#live-exposure")
+    operator.fill("#live-exposure", "4")
+    operator.click("#live-exposure-set")
+    operator.wait_for_function("() => document.getElementById('live-image').src.startsWith('data:image/png')",
+                               timeout=STEP_MS)
+    operator.wait_for_function("() => document.getElementById('live-warning').textContent.includes('saturated')")
+    summary["overexposed"] = operator.inner_text("#live-warning")
+    operator.fill("#live-exposure", exposure)
+    operator.click("#live-exposure-set")
+    operator.wait_for_function("() => document.getElementById('live-warning').textContent === ''")
     operator.select_option("#live-show", "decode")
     operator.click("#live-take")
-    operator.wait_for_function("() => document.getElementById('live-image').src.startsWith('data:image/png')",
+    operator.wait_for_function("() => document.getElementById('live-note').textContent.startsWith('decoded')",
                                timeout=STEP_MS)
     summary["live_note"] = operator.inner_text("#live-note")
     shot(operator, args, summary, "live")

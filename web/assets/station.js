@@ -103,6 +103,8 @@
     $('rig-state').textContent = (s.rig.calibrated ? 'calibrated, ' : 'not calibrated yet (the virtual rig\'s own), ') + s.rig.path;
     $('data-dir').textContent = s.data;
     if (!$('scan-views').value) $('scan-views').value = s.views;
+    if (document.activeElement !== $('live-exposure')) $('live-exposure').value = s.exposure;
+    if (document.activeElement !== $('live-projector')) $('live-projector').value = s.projector ? s.projector : 'off';
     if (d.unplugged) $('rig-state').textContent += '; the virtual turntable is unplugged (a scan started now plugs in a new one)';
     showControl();
   }
@@ -142,6 +144,8 @@
     } finally { liveBusy = false; }
   }
   on('live-take', takeFrame);
+  on('live-exposure-set', async () => { await api('POST', '/api/camera', { exposure: Number($('live-exposure').value) }); await takeFrame(); });
+  on('live-projector-set', async () => { await api('POST', '/api/projector', { pattern: $('live-projector').value }); await takeFrame(); });
   setInterval(() => {
     if ($('live-auto').checked && !$('live').hidden && !(state && state.job)) takeFrame().catch((e) => say(e.message));
   }, 800);
