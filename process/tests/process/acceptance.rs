@@ -270,7 +270,9 @@ fn surface_samples(m: &TriMesh, n: usize, min_z: Real) -> Vec<Point3> {
 
 #[test]
 fn merged_36_view_cloud_covers_the_visible_surface() {
-    let cfg = config("sim-structured-light.toml", 640, 512, 36, false);
+    // Coverage is the views' doing, not the pixels': at 320×256 the merged cloud still covers 100.00 %
+    // of the surface within the 0.5 % radius (768,851 points), in 10.5 s against 53.5 s at 640×512.
+    let cfg = config("sim-structured-light.toml", 320, 256, 36, false);
     let vase = sim::fluted_vase(120.0);
     let diag = vase.bounding_box().unwrap().diagonal();
     let scene = Scene::on_turntable(&cfg, &vase, Albedo::Constant(0.8));
