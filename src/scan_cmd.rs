@@ -194,7 +194,7 @@ pub fn virtual_turntable(args: &VirtualTurntableArgs) -> Result<()> {
 }
 
 #[cfg(feature = "v4l2")]
-fn open_v4l2(path: &str, rig: &rig::Rig) -> Result<Box<dyn Camera>> {
+pub(crate) fn open_v4l2(path: &str, rig: &rig::Rig) -> Result<Box<dyn Camera>> {
     let opts =
         acquire::v4l2_camera::V4l2Options { width: rig.camera.width, height: rig.camera.height, ..Default::default() };
     let cam = acquire::v4l2_camera::V4l2Camera::open(path, &opts)?;
@@ -205,7 +205,7 @@ fn open_v4l2(path: &str, rig: &rig::Rig) -> Result<Box<dyn Camera>> {
 }
 
 #[cfg(not(feature = "v4l2"))]
-fn open_v4l2(path: &str, _rig: &rig::Rig) -> Result<Box<dyn Camera>> {
+pub(crate) fn open_v4l2(path: &str, _rig: &rig::Rig) -> Result<Box<dyn Camera>> {
     bail!("{path}: this scanrig was built without V4L2 support; rebuild with `--features v4l2`")
 }
 

@@ -34,6 +34,24 @@ pub fn board_pose(camera: &PinholeCamera, object: &[Point3], corners: &[Point2])
     Some(refine_pose(camera, object, corners, start))
 }
 
+/// How far the platter turned between two frames of a board standing on it, about the rig's axis
+/// (degrees, counter-clockwise seen from above as the turntable counts): the rotation from the
+/// board's pose in the first frame to its pose in the second, projected on the axis' direction.
+/// `None` when either pose cannot be found. The turntable check of `scanrig serve` compares it with
+/// the turn it asked for: a wrong sign is a motor wired backwards, a wrong size the steps per degree.
+pub fn measured_turn(
+    camera: &PinholeCamera,
+    axis: &rig::TurntableAxis,
+    object: &[Point3],
+    before: &[Point2],
+    after: &[Point2],
+) -> Option<Real> {
+    let (p0, p1) = (board_pose(camera, object, before)?, board_pose(camera, object, after)?);
+    // camera_from_object(θ) = O₀⁻¹·Rz(θ): the board's motion in the camera frame is a turn by θ
+    // about the axis direction (rig::turntable).
+    Some((p1 * p0.inverse()).rotation.scaled_axis().dot(&axis.direction).to_degrees())
+}
+
 fn refine_pose(camera: &PinholeCamera, object: &[Point3], corners: &[Point2], start: Isometry3) -> Isometry3 {
     let mut x0 = DVector::zeros(6);
     x0.fixed_rows_mut::<3>(0).copy_from(&start.rotation.scaled_axis());

@@ -6,7 +6,6 @@
 //! the rig is written only when its plausibility checks pass, and the report page is linked.
 
 use super::devices::{CameraChoice, Link};
-use super::live::sim_camera;
 use super::{Station, lock};
 use crate::cli::{Args, Command};
 use anyhow::{Context, Result, bail};
@@ -111,7 +110,7 @@ pub fn describe(st: &Station) -> Value {
 
 /// Takes the next held pose (`kind` "held") or the whole sweep ("sweep").
 pub fn capture(st: &Arc<Station>, kind: &str) -> Result<()> {
-    if st.devices.camera() != CameraChoice::Simulator {
+    if matches!(st.devices.camera(), CameraChoice::Folder(_)) {
         bail!("the wizard captures with a live camera; a folder of frames is calibrated with `scanrig calibrate all`");
     }
     let rig = st.rig()?;
@@ -176,15 +175,18 @@ fn take_one(
 ) -> Result<()> {
     let shown = Arc::new(Mutex::new(None));
     let cfg = st.camera_config();
-    let mut camera = sim_camera(st, &cfg, scene, program, link, &shown)?;
-    // Each capture its own noise, as separate exposures have.
-    camera.seed = st.world.seed.wrapping_add(index as u64 + 1);
+    // The simulated capture: each its own noise, as separate exposures have.
+    let seed = st.world.seed.wrapping_add(index as u64 + 1);
+    let simulated = st.devices.camera() == CameraChoice::Simulator;
+    let what = super::live::Shooting { cfg: &cfg, scene, program, seed };
+    let mut camera = super::live::live_camera(st, what, link, &shown)?;
     let mut projector = crate::virtual_rig::SimProjector(shown.clone());
     let mut plan = acquire::Plan::full_turn(Method::Board, program.to_vec(), 1);
     plan.angles = vec![angle];
     plan.settle = if link.board.is_some() { Duration::ZERO } else { Duration::from_millis(200) };
-    plan.seed = Some(camera.seed);
-    let devices = acquire::Devices { turntable: &mut link.turntable, camera: &mut camera, projector: &mut projector };
+    plan.seed = simulated.then_some(seed);
+    let devices =
+        acquire::Devices { turntable: &mut link.turntable, camera: camera.as_mut(), projector: &mut projector };
     acquire::session::run(dir, rig, &plan, false, devices, |_, _, _| {})?;
     acquire::Turntable::move_to(&mut link.turntable, 0.0)?;
     if held {

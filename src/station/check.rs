@@ -4,7 +4,7 @@
 //! projector light the scene. Each verdict says what to do when it fails.
 
 use super::devices::CameraChoice;
-use super::live::{check_program, saturated, shoot, sim_camera};
+use super::live::{Shooting, check_program, live_camera, saturated, shoot};
 use super::{Station, lock};
 use acquire::Turntable;
 use anyhow::Result;
@@ -49,7 +49,7 @@ pub fn run(st: &Arc<Station>) -> Result<()> {
             return Ok(());
         }
     };
-    if st.devices.camera() != CameraChoice::Simulator {
+    if matches!(st.devices.camera(), CameraChoice::Folder(_)) {
         say(
             st,
             "camera",
@@ -73,15 +73,17 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
     let program = check_program(rig);
     let shown = Arc::new(Mutex::new(None));
     let cfg = st.camera_config();
-    let mut camera = sim_camera(st, &cfg, &scene, &program, link, &shown)?;
+    let what = Shooting { cfg: &cfg, scene: &scene, program: &program, seed: st.world.seed };
+    let mut camera = live_camera(st, what, link, &shown)?;
+    let camera = camera.as_mut();
     let t = &mut link.turntable;
     t.motor(true)?;
     t.set_speed(200.0)?;
     t.set_acceleration(200.0)?;
     t.move_to(0.0)?;
     let lasers = rig.lasers.len();
-    let lit = if rig.projector.is_some() { Pattern::White } else { Pattern::LaserOff };
-    let first = shoot(&mut camera, t, &shown, lasers, lit)?;
+    let lit = Pattern::White;
+    let first = shoot(camera, t, &shown, lasers, lit)?;
     let (cols, rows) = (st.board.cols as usize, st.board.rows as usize);
     let corners = |img: &Image8| calib::find_corners(&calib::Gray::from_image(img), cols, rows).ok();
     let seen = corners(&first);
@@ -111,15 +113,15 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
         }
         (Some(c0), Some(axis)) => {
             t.move_to(TURN_DEG)?;
-            let after = shoot(&mut camera, t, &shown, lasers, lit)?;
+            let after = shoot(camera, t, &shown, lasers, lit)?;
             t.move_to(0.0)?;
             let object: Vec<rig::Point3> = (0..rows)
                 .flat_map(|j| (0..cols).map(move |i| rig::Point3::new(i as f64 * st.square, j as f64 * st.square, 0.0)))
                 .collect();
-            let pose = |c: &[rig::Point2]| calib::turntable_axis::board_pose(&rig.camera, &object, c);
-            match (pose(c0), corners(&after).and_then(|c| pose(&c))) {
-                (Some(p0), Some(p1)) => {
-                    let turn = (p1 * p0.inverse()).rotation.scaled_axis().dot(&axis.direction).to_degrees();
+            let turned = corners(&after)
+                .and_then(|c1| calib::turntable_axis::measured_turn(&rig.camera, &axis, &object, c0, &c1));
+            match turned {
+                Some(turn) => {
                     let ok = (turn - TURN_DEG).abs() <= TURN_TOLERANCE_DEG;
                     let todo = if turn * TURN_DEG < 0.0 {
                         "the platter turns the wrong way: swap the motor's coil wires or the rig's axis direction"
@@ -145,16 +147,16 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
         }
     }
     // Each laser, then the projector: do they light the scene where the camera sees?
-    let dark = shoot(&mut camera, t, &shown, lasers, Pattern::LaserOff)?;
+    let dark = shoot(camera, t, &shown, lasers, Pattern::LaserOff)?;
     for k in 0..lasers {
-        let on = shoot(&mut camera, t, &shown, lasers, Pattern::Laser { index: k })?;
-        let (_, rows_lit, clipped) = super::live::laser_overlay(&dark, &on);
+        let on = shoot(camera, t, &shown, lasers, Pattern::Laser { index: k })?;
+        let (_, line) = super::live::laser_overlay(&dark, &on, rig.lasers[k].colour);
         let h = on.height as usize;
         say(
             st,
             &format!("laser {k}"),
-            Some(rows_lit >= h / 20),
-            format!("a line in {rows_lit} of {h} rows ({clipped} saturated)"),
+            Some(line.found >= h / 20),
+            format!("a line in {} of {h} rows ({} saturated, {} too wide)", line.found, line.saturated, line.too_wide),
             "switch the laser on, aim it across the platter's centre, and check its plane in the rig",
         );
     }
@@ -162,8 +164,8 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
         t.laser(k, false)?;
     }
     if rig.projector.is_some() {
-        let white = shoot(&mut camera, t, &shown, 0, Pattern::White)?.to_gray();
-        let black = shoot(&mut camera, t, &shown, 0, Pattern::Black)?.to_gray();
+        let white = shoot(camera, t, &shown, 0, Pattern::White)?.to_gray();
+        let black = shoot(camera, t, &shown, 0, Pattern::Black)?.to_gray();
         let lit = white.data.iter().zip(&black.data).filter(|(w, b)| **w as i16 - **b as i16 > 20).count();
         let share = lit as f64 / white.data.len().max(1) as f64;
         say(

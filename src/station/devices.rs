@@ -35,6 +35,8 @@ pub enum CameraChoice {
     Simulator,
     /// Frames recorded earlier, replayed in order.
     Folder(PathBuf),
+    /// A V4L2 camera (`/dev/videoN`; feature `v4l2`).
+    Device(String),
 }
 
 struct Inner {
@@ -67,7 +69,11 @@ impl Devices {
         ports.extend(serialport::available_ports().unwrap_or_default().into_iter().map(|p| p.port_name));
         json!({
             "turntable": i.turntable,
-            "camera": match &i.camera { CameraChoice::Simulator => SIMULATOR.to_string(), CameraChoice::Folder(d) => d.display().to_string() },
+            "camera": match &i.camera {
+                CameraChoice::Simulator => SIMULATOR.to_string(),
+                CameraChoice::Folder(d) => d.display().to_string(),
+                CameraChoice::Device(p) => p.clone(),
+            },
             "connected": i.link.is_some() || i.board.as_ref().is_some_and(|b| !b.unplugged()),
             "unplugged": i.board.as_ref().is_some_and(|b| b.unplugged()),
             "ports": ports,
@@ -85,8 +91,15 @@ impl Devices {
         }
         let camera = match b["camera"].as_str().unwrap_or(SIMULATOR).trim() {
             SIMULATOR => CameraChoice::Simulator,
+            dev if dev.starts_with("/dev/video") && std::path::Path::new(dev).exists() => {
+                CameraChoice::Device(dev.to_string())
+            }
             dir if std::path::Path::new(dir).is_dir() => CameraChoice::Folder(PathBuf::from(dir)),
-            other => return Err(format!("camera: {other:?} is neither the simulator nor a folder of frames")),
+            other => {
+                return Err(format!(
+                    "camera: {other:?} is neither the simulator, a /dev/video device here nor a folder of frames"
+                ));
+            }
         };
         if camera == CameraChoice::Simulator && turntable != VIRTUAL {
             return Err(

@@ -8,6 +8,7 @@ use crate::virtual_rig::SimCamera;
 use acquire::Turntable;
 use acquire::camera::{Camera, Shot};
 use anyhow::{Result, bail};
+use process::triangulate::laser_line::LineReport;
 use rig::Pattern;
 use rig::image::Image8;
 use serde_json::json;
@@ -16,8 +17,6 @@ use tiny_http::ResponseBox;
 
 /// A pixel this bright or brighter is saturated (the sensor clipped it).
 pub const SATURATED: u8 = 250;
-/// A laser row counts as lit where the laser frame exceeds the dark one by this much.
-const LINE_CONTRAST: i16 = 30;
 
 /// The virtual camera's exposure, from `{exposure}`: the simulator's sensor exposure, 0.01 to 10.
 pub fn set_exposure(st: &Station, b: &serde_json::Value) -> Result<serde_json::Value, String> {
@@ -44,35 +43,59 @@ pub fn set_projector(st: &Station, b: &serde_json::Value) -> Result<serde_json::
     Ok(json!({ "projector": b["pattern"] }))
 }
 
-/// The simulator as the camera for `scene` with `cfg`'s sensor ([`Station::camera_config`]),
-/// watching `link`'s virtual board and `shown`'s pattern.
-pub fn sim_camera<'a>(
+/// What a frame taken now is of: the simulator's world (`cfg`'s sensor, [`Station::camera_config`],
+/// and `scene`) and the program its lights are made for.
+pub struct Shooting<'a> {
+    /// The virtual camera's config.
+    pub cfg: &'a sim::SimConfig,
+    /// What stands in front of it.
+    pub scene: &'a sim::Scene,
+    /// Every pattern it may be asked to show.
+    pub program: &'a [Pattern],
+    /// Its noise seed (the world's, unless a capture needs its own).
+    pub seed: u64,
+}
+
+/// The camera chosen, for a job that takes frames now: the simulator showing `what`, watching
+/// `link`'s virtual board and `shown`'s pattern, or a V4L2 camera (which shows whatever is in front
+/// of it). A folder of recorded frames takes no frame now.
+pub fn live_camera<'a>(
     st: &Station,
-    cfg: &'a sim::SimConfig,
-    scene: &'a sim::Scene,
-    program: &[Pattern],
+    what: Shooting<'a>,
     link: &Link,
     shown: &Arc<Mutex<Option<Pattern>>>,
-) -> Result<SimCamera<'a>> {
-    let Some(board) = &link.board else { bail!("the simulator camera watches the virtual turntable only") };
-    Ok(SimCamera {
-        cfg,
-        scene,
-        rays: sim::pixel_rays(&cfg.rig.camera),
-        lights: sim::scan::lights_for(cfg, program),
-        program: program.to_vec(),
-        seed: st.world.seed,
-        board: board.state.clone(),
-        shown: shown.clone(),
-        geometry: None,
-    })
+) -> Result<Box<dyn Camera + 'a>> {
+    match st.devices.camera() {
+        CameraChoice::Simulator => {
+            let Some(board) = &link.board else { bail!("the simulator camera watches the virtual turntable only") };
+            Ok(Box::new(SimCamera {
+                cfg: what.cfg,
+                scene: what.scene,
+                rays: sim::pixel_rays(&what.cfg.rig.camera),
+                lights: sim::scan::lights_for(what.cfg, what.program),
+                program: what.program.to_vec(),
+                seed: what.seed,
+                board: board.state.clone(),
+                shown: shown.clone(),
+                geometry: None,
+            }))
+        }
+        CameraChoice::Device(path) => crate::scan_cmd::open_v4l2(&path, &st.rig()?),
+        CameraChoice::Folder(_) => {
+            bail!(
+                "a folder of recorded frames takes no frame now: choose the simulator or a camera to check, look or calibrate"
+            )
+        }
+    }
 }
 
 /// What the rig can show: the projector's white and black, the lasers off and each on.
 pub fn check_program(rig: &rig::Rig) -> Vec<Pattern> {
-    let mut p = Vec::new();
+    // White: the projector full on, or on a laser rig the work light (as its calibration captures
+    // the board, `sim::scan::program`).
+    let mut p = vec![Pattern::White];
     if rig.projector.is_some() {
-        p.extend([Pattern::White, Pattern::Black]);
+        p.push(Pattern::Black);
     }
     p.push(Pattern::LaserOff);
     p.extend((0..rig.lasers.len()).map(|index| Pattern::Laser { index }));
@@ -114,9 +137,6 @@ pub fn frame(st: &Station, show: &str) -> ResponseBox {
 }
 
 fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
-    if st.devices.camera() != CameraChoice::Simulator {
-        bail!("the live view needs a camera that takes frames now; a folder of recorded frames does not");
-    }
     let rig = st.rig()?;
     let mut link = st.devices.take()?;
     let result = (|| {
@@ -147,18 +167,19 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
             program.push(Pattern::Texture);
         }
         let cfg = st.camera_config();
-        let mut camera = sim_camera(st, &cfg, scene, &program, &link, &shown)?;
+        let what = Shooting { cfg: &cfg, scene, program: &program, seed: st.world.seed };
+        let mut camera = live_camera(st, what, &link, &shown)?;
+        let camera = camera.as_mut();
         let lasers = rig.lasers.len();
-        // The raw frame shows what the projector was set to by hand (lit, dark or off).
-        let manual = if rig.projector.is_some() { *lock(&st.projector) } else { None };
+        // The raw frame shows what the projector was set to by hand (lit, dark or off); a laser
+        // rig's, the work light.
         let lit = match show {
             "colour" => Pattern::Texture,
-            "raw" => manual.unwrap_or(Pattern::LaserOff),
-            _ if rig.projector.is_some() => Pattern::White,
-            _ => Pattern::LaserOff,
+            "raw" if rig.projector.is_some() => lock(&st.projector).unwrap_or(Pattern::LaserOff),
+            _ => Pattern::White,
         };
         let t = &mut link.turntable;
-        let raw = shoot(&mut camera, t, &shown, lasers, lit)?;
+        let raw = shoot(camera, t, &shown, lasers, lit)?;
         let sat = saturated(&raw);
         let mut note = String::new();
         let picture = match show {
@@ -168,18 +189,18 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
                     bail!("the rig has no lasers");
                 }
                 *lock(&shown) = None;
-                let off = shoot(&mut camera, t, &shown, lasers, Pattern::LaserOff)?;
-                let on = shoot(&mut camera, t, &shown, lasers, Pattern::Laser { index: 0 })?;
+                let off = shoot(camera, t, &shown, lasers, Pattern::LaserOff)?;
+                let on = shoot(camera, t, &shown, lasers, Pattern::Laser { index: 0 })?;
                 t.laser(0, false)?;
-                let (img, found, clipped) = laser_overlay(&off, &on);
-                note = format!("laser 0: a line in {found} rows; {clipped} rows rejected as saturated (orange)");
+                let (img, report) = laser_overlay(&off, &on, rig.lasers[0].colour);
+                note = format!("laser 0: {}", laser_legend(&report));
                 img
             }
             "decode" => {
                 let p = rig.projector.as_ref().expect("checked above");
                 let frames: Vec<(Pattern, Image8)> = program
                     .iter()
-                    .map(|&pat| shoot(&mut camera, t, &shown, 0, pat).map(|i| (pat, i)))
+                    .map(|&pat| shoot(camera, t, &shown, 0, pat).map(|i| (pat, i)))
                     .collect::<Result<_>>()?;
                 let refs: Vec<(Pattern, &Image8)> = frames.iter().map(|(p, i)| (*p, i)).collect();
                 let (map, report) =
@@ -221,36 +242,39 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
     result
 }
 
-/// The laser frame over the dark one: the signal in red, the line's peak per row in green, rows
-/// whose peak is clipped in orange (a saturated line has no sub-pixel centre); counts of each.
-pub fn laser_overlay(off: &Image8, on: &Image8) -> (Image8, usize, usize) {
-    let (g_off, g_on) = (off.to_gray(), on.to_gray());
-    let (w, h) = (g_on.width as usize, g_on.height as usize);
-    let mut img = web::picture::to_rgb(off);
-    let (mut found, mut clipped) = (0, 0);
-    for y in 0..h {
-        let mut best = (0i16, 0usize);
-        for x in 0..w {
-            let d = g_on.data[y * w + x] as i16 - g_off.data[y * w + x] as i16;
-            if d > 0 {
-                let px = &mut img.data[(y * w + x) * 3..(y * w + x) * 3 + 3];
-                px[0] = px[0].saturating_add((d.min(255) as u8) / 2 + 60);
-            }
-            if d > best.0 {
-                best = (d, x);
-            }
-        }
-        if best.0 >= LINE_CONTRAST {
-            let x = best.1;
-            let colour = if g_on.data[y * w + x] >= SATURATED {
-                clipped += 1;
-                [255, 150, 0]
-            } else {
-                found += 1;
-                [0, 255, 0]
-            };
-            img.data[(y * w + x) * 3..(y * w + x) * 3 + 3].copy_from_slice(&colour);
+/// The laser frame with the line the pipeline finds in it (its own extraction, with its default
+/// settings, against the dark frame): each row's peak in green, and a mark at the left edge of each
+/// row the extraction rejected, in the colour of its reason (rows with nothing at all are left
+/// unmarked). The report counts each reason.
+pub fn laser_overlay(off: &Image8, on: &Image8, colour: rig::LaserColour) -> (Image8, LineReport) {
+    use process::triangulate::laser_line::{Background, RowOutcome, extract_line_explained};
+    let params = process::ProcessParams::default().laser;
+    let (peaks, report, outcomes) =
+        extract_line_explained(on, Background::Frame(off), colour, None, &params, |_, _| true);
+    let mut img = web::picture::to_rgb(on);
+    let w = img.width as usize;
+    for (row, why) in outcomes.iter().enumerate() {
+        let mark = match why {
+            RowOutcome::Saturated => [255, 150, 0],
+            RowOutcome::TooWide => [230, 0, 230],
+            RowOutcome::Doubled => [255, 235, 0],
+            RowOutcome::Outside => [0, 200, 230],
+            RowOutcome::Found | RowOutcome::Faint | RowOutcome::Unsearched => continue,
+        };
+        for x in 0..w.min(8) {
+            img.data[(row * w + x) * 3..(row * w + x) * 3 + 3].copy_from_slice(&mark);
         }
     }
-    (img, found, clipped)
+    let px: Vec<[f64; 2]> = peaks.iter().map(|p| [p.col, p.row as f64]).collect();
+    web::picture::mark(&mut img, &px, 0, [0, 255, 0]);
+    (img, report)
+}
+
+/// What [`laser_overlay`]'s marks mean, with the counts.
+pub fn laser_legend(r: &LineReport) -> String {
+    format!(
+        "a line in {} rows (green); rejected: {} saturated (orange), {} too wide (magenta), {} doubled (yellow), \
+         {} outside the working volume (cyan); {} rows without a line",
+        r.found, r.saturated, r.too_wide, r.doubled, r.outside, r.faint
+    )
 }

@@ -76,6 +76,7 @@ pub fn run(st: &Arc<Station>, project: &str, views: usize) -> Result<()> {
             }
             Box::new(replay)
         }
+        CameraChoice::Device(path) => crate::scan_cmd::open_v4l2(&path, &rig)?,
         CameraChoice::Simulator => {
             let Some(board) = &link.board else { bail!("the simulator camera needs the virtual turntable") };
             Box::new(SimCamera {

@@ -309,3 +309,59 @@ fn hostile_requests_are_refused_by_name_and_leave_the_station_and_the_disk_as_th
     let made: Vec<_> = std::fs::read_dir(&data).unwrap().flatten().map(|e| e.file_name()).collect();
     assert!(made.iter().all(|n| n == "calibration"), "{made:?}");
 }
+
+/// The events a station sends on one stream until one of `kind` carries `until` (or 60 s pass).
+fn events_until(url: &str, kind: &str, until: &str, start: impl FnOnce()) -> Vec<(String, serde_json::Value)> {
+    let addr = url.trim_start_matches("http://").split('/').next().unwrap().to_string();
+    let mut s = TcpStream::connect(&addr).unwrap();
+    s.set_read_timeout(Some(std::time::Duration::from_secs(60))).unwrap();
+    s.write_all(format!("GET /api/events HTTP/1.0\r\nHost: {addr}\r\n\r\n").as_bytes()).unwrap();
+    start();
+    let mut events = Vec::new();
+    let (mut name, mut reader) = (String::new(), BufReader::new(s));
+    loop {
+        let mut line = String::new();
+        if reader.read_line(&mut line).unwrap_or(0) == 0 {
+            return events;
+        }
+        if let Some(n) = line.strip_prefix("event: ") {
+            name = n.trim().to_string();
+        } else if let Some(d) = line.strip_prefix("data: ") {
+            let v: serde_json::Value = serde_json::from_str(d.trim()).unwrap();
+            let done = name == kind && v.to_string().contains(until);
+            events.push((name.clone(), v));
+            if done {
+                return events;
+            }
+        }
+    }
+}
+
+#[test]
+fn a_laser_rig_is_checked_and_its_line_shown_with_the_pipeline_s_own_extraction() {
+    let d = tempfile::tempdir().unwrap();
+    let st = serve(d.path(), &["--config", "laser"]);
+    let (_, body) = request(&st.url, "POST", "/api/control", None, &[]);
+    let token: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let token = token["token"].as_str().unwrap().to_string();
+    let events = events_until(&st.url, "check", "end", || {
+        assert_eq!(post(&st.url, "/api/check", &token, "{}").0, 202);
+    });
+    let verdicts: Vec<&serde_json::Value> =
+        events.iter().filter(|(k, v)| k == "check" && v["ok"].is_boolean()).map(|(_, v)| v).collect();
+    for name in ["turntable", "board", "exposure", "turn", "laser 0", "laser 1"] {
+        let v =
+            verdicts.iter().find(|v| v["name"] == name).unwrap_or_else(|| panic!("no {name} verdict: {verdicts:?}"));
+        assert_eq!(v["ok"], true, "{v}");
+    }
+    // The live view's laser line: the pipeline's extraction, every reason named.
+    let (status, body) = request(&st.url, "GET", "/api/live?show=laser", None, &[("X-Scanrig-Control", &token)]);
+    assert_eq!(status, 200, "{body}");
+    let live: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let note = live["note"].as_str().unwrap();
+    let rows: usize = note.split("a line in ").nth(1).unwrap().split(' ').next().unwrap().parse().unwrap();
+    assert!(rows > 50 && note.contains("saturated") && note.contains("doubled"), "{note}");
+    assert!(live["image"].as_str().unwrap().starts_with("data:image/png;base64,"));
+    // Without control, no frame.
+    assert_eq!(request(&st.url, "GET", "/api/live?show=raw", None, &[]).0, 409);
+}

@@ -235,6 +235,26 @@ enum RowFind {
     Usable(Vec<Candidate>),
 }
 
+/// What became of one row: its peak found, or why it has none (the reasons [`LineReport`] counts).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RowOutcome {
+    /// A peak was chosen.
+    Found,
+    /// Outside the working volume's reach: not searched.
+    Unsearched,
+    /// Candidates only outside the working volume.
+    Outside,
+    /// No candidate above `min_peak`.
+    Faint,
+    /// Only candidates too wide for a laser line.
+    TooWide,
+    /// Only saturated candidates wider than a line.
+    Saturated,
+    /// Comparable candidates and no neighbour to tell them apart.
+    Doubled,
+}
+
 /// Finds the laser line in every row of `frame`.
 ///
 /// `windows` limits each row's search (see [`window`]); `keep` masks single pixels out (the printed
@@ -248,6 +268,20 @@ pub fn extract_line(
     p: &LaserParams,
     keep: impl Fn(usize, usize) -> bool + Sync,
 ) -> (Vec<LinePeak>, LineReport) {
+    let (peaks, report, _) = extract_line_explained(frame, background, colour, windows, p, keep);
+    (peaks, report)
+}
+
+/// [`extract_line`], with what became of each row (for a live view that marks rejected rows by
+/// their reason).
+pub fn extract_line_explained(
+    frame: &Image8,
+    background: Background<'_>,
+    colour: LaserColour,
+    windows: Option<&RowWindows>,
+    p: &LaserParams,
+    keep: impl Fn(usize, usize) -> bool + Sync,
+) -> (Vec<LinePeak>, LineReport, Vec<RowOutcome>) {
     let (w, h) = (frame.width as usize, frame.height as usize);
     let finds: Vec<RowFind> = (0..h)
         .into_par_iter()
@@ -279,25 +313,30 @@ pub fn extract_line(
             },
         )
         .collect();
-    let (peaks, mut report) = choose(&finds, p);
+    let (peaks, mut report, outcomes) = choose(&finds, p);
     report.estimated_background = matches!(background, Background::Estimated);
-    (peaks, report)
+    (peaks, report, outcomes)
 }
 
 /// Picks one candidate per row: a row's only (or clearly strongest) candidate first, then, in rows
 /// with several comparable ones, the one continuing the nearest chosen rows' line.
-fn choose(finds: &[RowFind], p: &LaserParams) -> (Vec<LinePeak>, LineReport) {
+fn choose(finds: &[RowFind], p: &LaserParams) -> (Vec<LinePeak>, LineReport, Vec<RowOutcome>) {
     let mut report = LineReport::default();
     let h = finds.len();
     let mut chosen: Vec<Option<Candidate>> = vec![None; h];
+    let mut outcomes = vec![RowOutcome::Found; h];
     let mut ambiguous = Vec::new();
     for (r, f) in finds.iter().enumerate() {
+        let mut reject = |count: &mut usize, why: RowOutcome| {
+            *count += 1;
+            outcomes[r] = why;
+        };
         match f {
-            RowFind::Unsearched => report.unsearched += 1,
-            RowFind::Outside => report.outside += 1,
-            RowFind::Faint => report.faint += 1,
-            RowFind::TooWide => report.too_wide += 1,
-            RowFind::Saturated => report.saturated += 1,
+            RowFind::Unsearched => reject(&mut report.unsearched, RowOutcome::Unsearched),
+            RowFind::Outside => reject(&mut report.outside, RowOutcome::Outside),
+            RowFind::Faint => reject(&mut report.faint, RowOutcome::Faint),
+            RowFind::TooWide => reject(&mut report.too_wide, RowOutcome::TooWide),
+            RowFind::Saturated => reject(&mut report.saturated, RowOutcome::Saturated),
             RowFind::Usable(c) => {
                 let mut sorted = c.clone();
                 sorted.sort_by(|a, b| b.peak.total_cmp(&a.peak));
@@ -336,7 +375,10 @@ fn choose(finds: &[RowFind], p: &LaserParams) -> (Vec<LinePeak>, LineReport) {
         });
         match pick {
             Some(c) => chosen[r] = Some(c),
-            None => report.doubled += 1,
+            None => {
+                report.doubled += 1;
+                outcomes[r] = RowOutcome::Doubled;
+            }
         }
     }
     let peaks: Vec<LinePeak> = chosen
@@ -345,7 +387,7 @@ fn choose(finds: &[RowFind], p: &LaserParams) -> (Vec<LinePeak>, LineReport) {
         .filter_map(|(row, c)| c.map(|c| LinePeak { row, col: c.col, peak: c.peak }))
         .collect();
     report.found = peaks.len();
-    (peaks, report)
+    (peaks, report, outcomes)
 }
 
 /// Finds the line in every row of `on` (laser on) against `off` (laser off), grey levels, no
@@ -418,6 +460,37 @@ mod tests {
             profile(15.0, 1.5, 150.0).iter().zip(profile(45.0, 1.5, 50.0)).map(|(a, b)| a + b).collect();
         let (peaks, _) = detect_line(&row(weak), &off, &p);
         assert!((peaks[0].col - 15.0).abs() < 0.1);
+    }
+
+    #[test]
+    fn each_row_s_outcome_is_the_reason_the_report_counts() {
+        // Five rows: a line, a faint one, a wide one, two comparable lines, nothing.
+        let rows = [
+            profile(30.0, 1.5, 150.0),
+            profile(30.0, 1.5, 5.0),
+            profile(30.0, 14.0, 150.0),
+            profile(15.0, 1.5, 150.0).iter().zip(profile(45.0, 1.5, 140.0)).map(|(a, b)| a + b).collect(),
+            vec![0.0; 64],
+        ];
+        let data: Vec<u8> = rows.iter().flatten().map(|v| (10.0 + v).round().clamp(0.0, 255.0) as u8).collect();
+        let on = Image8::gray(64, 5, data);
+        let off = Image8::gray(64, 5, vec![10; 64 * 5]);
+        let (peaks, r, outcomes) = extract_line_explained(
+            &on,
+            Background::Frame(&off),
+            LaserColour::White,
+            None,
+            &LaserParams::default(),
+            |_, _| true,
+        );
+        use RowOutcome::*;
+        assert_eq!(outcomes, vec![Found, Faint, TooWide, Doubled, Faint]);
+        assert_eq!((peaks.len(), r.found, r.faint, r.too_wide, r.doubled), (1, 1, 2, 1, 1));
+        assert_eq!(
+            extract_line(&on, Background::Frame(&off), LaserColour::White, None, &LaserParams::default(), |_, _| true)
+                .0,
+            peaks
+        );
     }
 
     #[test]
