@@ -110,6 +110,12 @@ pub fn request_stop() {
     STOP.store(true, std::sync::atomic::Ordering::SeqCst);
 }
 
+/// Forgets a stop asked for before a session began (a host that starts sessions one after another,
+/// as `scanrig serve` does, so a late request cannot stop the next one at its first view).
+pub fn clear_stop() {
+    STOP.store(false, std::sync::atomic::Ordering::SeqCst);
+}
+
 /// What a session did.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct SessionReport {

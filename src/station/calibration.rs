@@ -38,6 +38,9 @@ struct Capture {
 #[derive(Default)]
 pub struct Wizard {
     captures: Vec<Capture>,
+    /// Captures taken since the station started: each one's folder is new (a reset forgets the
+    /// list, never a folder an accepted capture may still name).
+    taken: usize,
 }
 
 fn root(st: &Station) -> PathBuf {
@@ -133,7 +136,11 @@ pub fn capture(st: &Arc<Station>, kind: &str) -> Result<()> {
     let mut link = st.devices.take()?;
     let result = (|| -> Result<()> {
         for (held, angle) in todo {
-            let index = lock(&st.calibration).captures.len();
+            let index = {
+                let mut w = lock(&st.calibration);
+                w.taken += 1;
+                w.taken
+            };
             let dir = root(st).join("captures").join(format!("capture_{index:03}"));
             if dir.exists() {
                 std::fs::remove_dir_all(&dir).with_context(|| format!("clearing {}", dir.display()))?;
@@ -187,6 +194,7 @@ fn take_one(
     plan.seed = simulated.then_some(seed);
     let devices =
         acquire::Devices { turntable: &mut link.turntable, camera: camera.as_mut(), projector: &mut projector };
+    acquire::session::clear_stop();
     acquire::session::run(dir, rig, &plan, false, devices, |_, _, _| {})?;
     acquire::Turntable::move_to(&mut link.turntable, 0.0)?;
     if held {
@@ -199,9 +207,8 @@ fn take_one(
 
 /// `{index, accept}`: keeps or drops a capture.
 pub fn review(st: &Station, b: &Value) -> Result<Value, String> {
-    let (Some(i), Some(accept)) = (b["index"].as_u64(), b["accept"].as_bool()) else {
-        return Err("say {index, accept}".into());
-    };
+    let Some(i) = b["index"].as_u64() else { return Err(format!("index: a capture's number, got {}", b["index"])) };
+    let Some(accept) = b["accept"].as_bool() else { return Err(format!("accept: true or false, got {}", b["accept"])) };
     {
         let mut w = lock(&st.calibration);
         let c = w.captures.get_mut(i as usize).ok_or_else(|| format!("index: no capture {i}"))?;

@@ -4,7 +4,7 @@
 use serde_json::Value;
 use std::io::Write;
 use std::sync::Mutex;
-use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, channel};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError, sync_channel};
 use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 /// Milliseconds since the Unix epoch: the time stamps events carry, so a page on the same machine
@@ -13,10 +13,13 @@ pub fn now_ms() -> f64 {
     SystemTime::now().duration_since(UNIX_EPOCH).map_or(0.0, |d| d.as_secs_f64() * 1e3)
 }
 
+/// Events a page may fall behind by before it is dropped (a scan of 3,600 views sends two a view).
+const BACKLOG: usize = 8192;
+
 /// Subscribers, and the last events of each kind a page that opens late needs (the job's state).
 #[derive(Default)]
 pub struct Bus {
-    subscribers: Mutex<Vec<Sender<String>>>,
+    subscribers: Mutex<Vec<SyncSender<String>>>,
     last_state: Mutex<Option<String>>,
 }
 
@@ -27,12 +30,16 @@ impl Bus {
         if kind == "state" {
             *self.last_state.lock().unwrap_or_else(|e| e.into_inner()) = Some(text.clone());
         }
-        self.subscribers.lock().unwrap_or_else(|e| e.into_inner()).retain(|s| s.send(text.clone()).is_ok());
+        // A page that stopped reading falls behind and is dropped (its stream then ends), rather
+        // than every event piling up for it.
+        self.subscribers.lock().unwrap_or_else(|e| e.into_inner()).retain(|s| {
+            !matches!(s.try_send(text.clone()), Err(TrySendError::Full(_) | TrySendError::Disconnected(_)))
+        });
     }
 
     /// A new subscriber, given the last state event first.
     pub fn subscribe(&self) -> Receiver<String> {
-        let (tx, rx) = channel();
+        let (tx, rx) = sync_channel(BACKLOG);
         if let Some(s) = self.last_state.lock().unwrap_or_else(|e| e.into_inner()).clone() {
             let _ = tx.send(s);
         }

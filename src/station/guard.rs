@@ -12,6 +12,8 @@ pub enum Refusal {
     Forbidden(String),
     /// 400: a path that could leave the served folders.
     BadPath(String),
+    /// 404: nothing there.
+    NotFound(String),
 }
 
 impl Refusal {
@@ -20,13 +22,14 @@ impl Refusal {
         match self {
             Refusal::Forbidden(_) => 403,
             Refusal::BadPath(_) => 400,
+            Refusal::NotFound(_) => 404,
         }
     }
 
     /// The message the page shows.
     pub fn message(&self) -> &str {
         match self {
-            Refusal::Forbidden(m) | Refusal::BadPath(m) => m,
+            Refusal::Forbidden(m) | Refusal::BadPath(m) | Refusal::NotFound(m) => m,
         }
     }
 }
@@ -63,8 +66,13 @@ impl Access {
         }
         if self.loopback {
             let port = self.port;
+            // A browser leaves the port out of Host for port 80.
             let ok = host.is_none_or(|h| {
-                h == format!("127.0.0.1:{port}") || h == format!("localhost:{port}") || h == format!("[::1]:{port}")
+                let (name, p) = match h.rsplit_once(':') {
+                    Some((n, p)) if !n.is_empty() && !p.contains(']') => (n, p),
+                    _ => (h, "80"),
+                };
+                matches!(name, "127.0.0.1" | "localhost" | "[::1]") && p == port.to_string()
             });
             if !ok {
                 return Err(Refusal::Forbidden("refused: not a loopback host name".into()));
@@ -81,6 +89,11 @@ pub fn query_value(url: &str, key: &str) -> Option<String> {
         let (k, v) = kv.split_once('=').unwrap_or((kv, ""));
         (k == key).then(|| percent_encoding::percent_decode_str(v).decode_utf8_lossy().into_owned())
     })
+}
+
+/// The `scanrig_token` cookie's value in a Cookie header.
+pub fn cookie_token(cookies: &str) -> Option<String> {
+    cookies.split(';').find_map(|c| c.trim().strip_prefix("scanrig_token=").map(str::to_string))
 }
 
 /// A URL's path without its query, percent-decoded once, and refused when it could name anything
@@ -117,7 +130,7 @@ pub fn file_under(root: &Path, relative: &str) -> Result<PathBuf, Refusal> {
     }
     let joined = root.join(rel);
     let (Ok(real), Ok(real_root)) = (joined.canonicalize(), root.canonicalize()) else {
-        return Err(Refusal::BadPath(format!("not found: {relative}")));
+        return Err(Refusal::NotFound(format!("not found: {relative}")));
     };
     if !real.starts_with(&real_root) {
         return Err(Refusal::BadPath(format!("refused: {relative:?} leads out of the data folder")));
@@ -163,6 +176,9 @@ mod tests {
         assert!(local.admit(Some("127.0.0.1:8720"), None).is_ok());
         assert!(local.admit(Some("localhost:8720"), None).is_ok());
         assert!(local.admit(Some("evil.example:8720"), None).is_err());
+        assert!(local.admit(Some("localhost"), None).is_err(), "port 80 only");
+        assert!(Access { loopback: true, port: 80, token: None }.admit(Some("localhost"), None).is_ok());
+        assert_eq!(cookie_token("a=1; scanrig_token=abc; b=2").as_deref(), Some("abc"));
         let wide = Access { loopback: false, port: 8720, token: Some("abc123".into()) };
         assert!(wide.admit(Some("scanner.lan:8720"), None).is_err());
         assert!(wide.admit(Some("scanner.lan:8720"), Some("abc12")).is_err());

@@ -127,12 +127,11 @@ pub fn saturated(img: &Image8) -> f64 {
 
 /// `GET /api/live?show=raw|colour|laser|decode|corners`: the frame as a PNG data URL, with notes.
 pub fn frame(st: &Station, show: &str) -> ResponseBox {
-    if lock(&st.job).is_some() {
-        return super::error(409, "a job uses the camera now; the live view comes back when it ends");
-    }
-    match take(st, show) {
+    // Under the job slot: no job may start while the frame is taken, nor the frame while one runs.
+    match st.exclusive("live", || take(st, show).map_err(|e| format!("{e:#}"))) {
         Ok(v) => super::json_response(200, &v),
-        Err(e) => super::error(400, &format!("{e:#}")),
+        Err((409, m)) => super::error(409, &format!("{m}; the live view comes back when it ends")),
+        Err((s, m)) => super::error(s, &m),
     }
 }
 

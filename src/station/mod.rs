@@ -114,16 +114,7 @@ impl Station {
         project: Option<String>,
         work: impl FnOnce(&Arc<Station>) -> Result<()> + Send + 'static,
     ) -> Result<(), (u16, String)> {
-        {
-            let mut job = lock(&self.job);
-            if let Some(j) = job.as_ref() {
-                return Err((
-                    409,
-                    format!("busy: {} {} runs; wait for it or stop it", j.kind, j.project.clone().unwrap_or_default()),
-                ));
-            }
-            *job = Some(Job { kind: kind.into(), project: project.clone() });
-        }
+        self.claim(kind, project.clone())?;
         self.bus.send("state", self.state_json());
         let st = self.clone();
         let kind = kind.to_string();
@@ -140,10 +131,37 @@ impl Station {
             if let Some(e) = error {
                 st.bus.send("fault", json!({"job": kind, "project": project, "message": e}));
             }
+            // The run's record ends before the slot frees: the next job opens its own.
+            drop(_run);
             *lock(&st.job) = None;
             st.bus.send("state", st.state_json());
         });
         Ok(())
+    }
+
+    /// Takes the one job slot for `kind`, or says what holds it.
+    fn claim(&self, kind: &str, project: Option<String>) -> Result<(), (u16, String)> {
+        let mut job = lock(&self.job);
+        if let Some(j) = job.as_ref() {
+            return Err((
+                409,
+                format!("busy: {} {} runs; wait for it or stop it", j.kind, j.project.clone().unwrap_or_default()),
+            ));
+        }
+        *job = Some(Job { kind: kind.into(), project });
+        Ok(())
+    }
+
+    /// Runs `work` now, on the request's thread, holding the job slot (a live frame, a manual move,
+    /// a change of devices: none may touch the rig while a job drives it, nor a job start meanwhile).
+    pub fn exclusive<T>(&self, kind: &str, work: impl FnOnce() -> Result<T, String>) -> Result<T, (u16, String)> {
+        self.claim(kind, None)?;
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
+        *lock(&self.job) = None;
+        match r {
+            Ok(r) => r.map_err(|e| (400, e)),
+            Err(_) => Err((500, "internal error (a bug in scanrig; the log above says where)".into())),
+        }
     }
 
     /// Everything a page shows outside a job's own events.
@@ -279,7 +297,7 @@ pub fn run(args: &ServeArgs) -> Result<()> {
     use std::io::Write as _;
     std::io::stdout().flush()?;
     eprintln!(
-        "projects in {}; rig {}; Ctrl-C stops the station (a scan stops after its view and resumes later)",
+        "projects in {}; rig {}; Ctrl-C stops the station (a scan keeps its complete views; Start resumes it)",
         station.data.display(),
         station.rig_path.display()
     );
@@ -331,7 +349,10 @@ fn body(req: &mut Request) -> Result<Value, String> {
 
 fn handle(st: &Arc<Station>, page: &str, mut req: Request) {
     let url = req.url().to_string();
-    let token = header_value(&req, "X-Scanrig-Token").map(str::to_string).or_else(|| guard::query_value(&url, "token"));
+    let token = header_value(&req, "X-Scanrig-Token")
+        .map(str::to_string)
+        .or_else(|| guard::query_value(&url, "token"))
+        .or_else(|| header_value(&req, "Cookie").and_then(guard::cookie_token));
     if let Err(r) = st.access.admit(header_value(&req, "Host"), token.as_deref()) {
         let _ = req.respond(error(r.status(), r.message()));
         return;
@@ -355,10 +376,23 @@ fn handle(st: &Arc<Station>, page: &str, mut req: Request) {
         return;
     }
     let response = match (method, path.as_str()) {
-        (Method::Get, "/" | "/index.html") => Response::from_data(page.as_bytes().to_vec())
-            .with_header(header("Content-Type", "text/html; charset=utf-8"))
-            .with_header(header("Cache-Control", "no-store"))
-            .boxed(),
+        (Method::Get, "/" | "/index.html") => {
+            let mut r = Response::from_data(page.as_bytes().to_vec())
+                .with_header(header("Content-Type", "text/html; charset=utf-8"))
+                .with_header(header("Cache-Control", "no-store"))
+                // Not framed by another site (clickjacking).
+                .with_header(header("X-Frame-Options", "DENY"))
+                .with_header(header("Content-Security-Policy", "frame-ancestors 'none'"));
+            // Beyond loopback, the token given in the address becomes a cookie, so the report pages'
+            // own relative links (which do not carry it) open too.
+            if let Some(t) = token.as_deref().filter(|_| st.access.token.is_some()) {
+                r = r.with_header(header(
+                    "Set-Cookie",
+                    &format!("scanrig_token={t}; HttpOnly; SameSite=Strict; Path=/"),
+                ));
+            }
+            r.boxed()
+        }
         // The report pages name no icon; the browser asks anyway.
         (Method::Get, "/favicon.ico") => Response::empty(204).boxed(),
         (Method::Get, "/api/state") => json_response(200, &st.state_json()),
@@ -376,6 +410,10 @@ fn handle(st: &Arc<Station>, page: &str, mut req: Request) {
             }
         }
         (Method::Get, p) if p.starts_with("/api/calibrate/capture/") => calibration::picture(st, p),
+        (Method::Post, _) if !same_origin(&req) => error(
+            403,
+            "refused: a control request must come from the station's own page (same origin, Content-Type application/json)",
+        ),
         (Method::Post, "/api/control") => {
             let offered = body(&mut req).ok().and_then(|b| b["token"].as_str().map(str::to_string));
             match st.take_control(offered.as_deref()) {
@@ -423,9 +461,15 @@ fn post(st: &Arc<Station>, path: &str, b: &Value) -> ResponseBox {
             st.bus.send("state", st.state_json());
             json_response(200, &json!({ "released": true }))
         }
-        "/api/devices" => done(st.devices.choose(b).map(|_| st.state_json())),
+        "/api/devices" => match st.exclusive("devices", || st.devices.choose(b)) {
+            Ok(()) => json_response(200, &st.state_json()),
+            Err((s, m)) => error(s, &m),
+        },
         "/api/check" => started(st.start_job("check", None, check::run)),
-        "/api/turntable" => done(devices::manual(st, b)),
+        "/api/turntable" => match st.exclusive("manual", || devices::manual(st, b)) {
+            Ok(v) => json_response(200, &v),
+            Err((s, m)) => error(s, &m),
+        },
         "/api/camera" => done(live::set_exposure(st, b)),
         "/api/projector" => done(live::set_projector(st, b)),
         "/api/fault/unplug" => done(st.devices.unplug().map(|_| json!({ "unplugged": true }))),
@@ -451,13 +495,19 @@ fn post(st: &Arc<Station>, path: &str, b: &Value) -> ResponseBox {
             }
             Err(m) => error(400, &m),
         },
-        "/api/calibrate/capture" => {
-            let kind = b["kind"].as_str().unwrap_or("held").to_string();
-            started(st.start_job("calibrate", None, move |st| calibration::capture(st, &kind)))
-        }
+        "/api/calibrate/capture" => match b["kind"].as_str() {
+            Some(k @ ("held" | "sweep")) => {
+                let kind = k.to_string();
+                started(st.start_job("calibrate", None, move |st| calibration::capture(st, &kind)))
+            }
+            _ => error(400, &format!("kind: held or sweep, got {}", b["kind"])),
+        },
         "/api/calibrate/review" => done(calibration::review(st, b)),
         "/api/calibrate/run" => started(st.start_job("calibrate", None, calibration::run)),
-        "/api/calibrate/reset" => done(calibration::reset(st)),
+        "/api/calibrate/reset" => match st.exclusive("calibrate", || calibration::reset(st)) {
+            Ok(v) => json_response(200, &v),
+            Err((s, m)) => error(s, &m),
+        },
         _ => error(404, "not found"),
     }
 }
@@ -466,9 +516,9 @@ fn post(st: &Arc<Station>, path: &str, b: &Value) -> ResponseBox {
 fn files(st: &Station, rel: &str) -> Result<ResponseBox, Refusal> {
     let path = guard::file_under(&st.data, rel)?;
     if !path.is_file() {
-        return Err(Refusal::BadPath(format!("not a file: {rel}")));
+        return Err(Refusal::NotFound(format!("not a file: {rel}")));
     }
-    let file = std::fs::File::open(&path).map_err(|e| Refusal::BadPath(format!("{rel}: {e}")))?;
+    let file = std::fs::File::open(&path).map_err(|e| Refusal::NotFound(format!("{rel}: {e}")))?;
     let kind = match path.extension().and_then(|e| e.to_str()).unwrap_or("") {
         "html" => "text/html; charset=utf-8",
         "json" => "application/json",
@@ -478,9 +528,26 @@ fn files(st: &Station, rel: &str) -> Result<ResponseBox, Refusal> {
     };
     let mut r = Response::from_file(file).with_header(header("Content-Type", kind));
     if kind == "application/octet-stream" || kind == "model/gltf-binary" {
-        let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        r = r
-            .with_header(header("Content-Disposition", &format!("attachment; filename=\"{}\"", name.replace('"', ""))));
+        // The name as printable ASCII (a header carries no more; the file keeps its own name).
+        let printable = |c: char| if c.is_ascii_graphic() && c != '"' && c != '\\' { c } else { '_' };
+        let name: String =
+            path.file_name().map(|n| n.to_string_lossy().chars().map(printable).collect()).unwrap_or_default();
+        r = r.with_header(header("Content-Disposition", &format!("attachment; filename=\"{name}\"")));
     }
     Ok(r.boxed())
+}
+
+/// True for a POST the station's own page could have sent: a JSON body (a form or a no-cors fetch
+/// from another site cannot say `application/json` without a preflight the station never answers),
+/// and no Origin or Sec-Fetch-Site naming another site.
+fn same_origin(req: &Request) -> bool {
+    let json = header_value(req, "Content-Type")
+        .is_some_and(|t| t.trim().to_ascii_lowercase().starts_with("application/json"));
+    let site_ok = header_value(req, "Sec-Fetch-Site").is_none_or(|s| s == "same-origin" || s == "none");
+    let origin_ok = match (header_value(req, "Origin"), header_value(req, "Host")) {
+        (None, _) => true,
+        (Some(o), Some(h)) => o.strip_prefix("http://").is_some_and(|rest| rest == h),
+        (Some(_), None) => false,
+    };
+    json && site_ok && origin_ok
 }

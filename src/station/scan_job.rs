@@ -53,6 +53,8 @@ pub fn run(st: &Arc<Station>, project: &str, views: usize) -> Result<()> {
             );
         }
     }
+    // A stop asked of an earlier scan is not this one's.
+    acquire::session::clear_stop();
     let mut plan = acquire::Plan::full_turn(method, program.clone(), views);
     plan.seed = Some(st.world.seed);
     let mut link = st.devices.take()?;

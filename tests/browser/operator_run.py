@@ -216,6 +216,7 @@ def run(browser, args, summary):
     shot(operator, args, summary, "processed")
     log = operator.inner_text("#live-log") if operator.query_selector("#live-log") else ""
     log = operator.eval_on_selector("#live-log", "p => p.textContent")
+    # A lag below zero would be the page's clock against the station's, not speed: kept as read.
     summary["lags_ms"] = {int(m.group(1)): int(m.group(2))
                           for m in re.finditer(r"view (\d+) shown (-?\d+) ms after its capture", log)}
     summary["clicks_ms"] = [int(m.group(1)) for m in re.finditer(r"projects answered in (\d+) ms during process", log)]

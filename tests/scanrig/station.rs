@@ -61,6 +61,10 @@ fn send(
     let mut s = TcpStream::connect(&connect).unwrap();
     let mut req =
         format!("{method} {path} HTTP/1.0\r\nHost: {}\r\nContent-Length: {}\r\n", host.unwrap_or(&addr), body.len());
+    // The station's own page sends JSON; a request saying otherwise is refused (checked below).
+    if method == "POST" && !headers.iter().any(|(k, _)| k.eq_ignore_ascii_case("Content-Type")) {
+        req.push_str("Content-Type: application/json\r\n");
+    }
     for (k, v) in headers {
         req.push_str(&format!("{k}: {v}\r\n"));
     }
@@ -77,10 +81,13 @@ fn send(
 #[test]
 fn the_station_refuses_paths_out_of_its_folder_foreign_hosts_and_a_second_controller() {
     let d = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(d.path().join("scan1/processed")).unwrap();
-    std::fs::write(d.path().join("scan1/processed/report.html"), "<p>report</p>").unwrap();
-    std::fs::write(d.path().join("secret.txt"), "outside a project").unwrap();
-    let st = serve(&d.path().join("scan1/.."), &[]);
+    let data = d.path().join("data");
+    std::fs::create_dir_all(data.join("scan1/processed")).unwrap();
+    std::fs::write(data.join("scan1/processed/report.html"), "<p>report</p>").unwrap();
+    // Beside the data folder, not in it: no path may reach it.
+    std::fs::write(d.path().join("secret.txt"), "SECRET outside the data folder").unwrap();
+    std::os::unix::fs::symlink(d.path().join("secret.txt"), data.join("scan1/link.txt")).unwrap();
+    let st = serve(&data.join("scan1/.."), &[]);
     assert!(st.url.starts_with("http://127.0.0.1:"), "bound to loopback by default: {}", st.url);
     let (ok, body) = request(&st.url, "GET", "/files/scan1/processed/report.html", None, &[]);
     assert_eq!((ok, body.as_str()), (200, "<p>report</p>"));
@@ -90,13 +97,16 @@ fn the_station_refuses_paths_out_of_its_folder_foreign_hosts_and_a_second_contro
         "/files/%2e%2e/%2e%2e/etc/passwd",
         "/files/%2E%2E%2F%2E%2E%2Fetc%2Fpasswd",
         "/files/scan1/%252e%252e/secret.txt",
+        "/files/%2e%2e/secret.txt",
+        "/files/../secret.txt",
+        "/files/scan1/link.txt",
         "/files/..%5c..%5cetc%5cpasswd",
         "/files//etc/passwd",
         "/%2e%2e/etc/passwd",
     ] {
         let (status, body) = request(&st.url, "GET", bad, None, &[]);
         assert!(status == 400 || status == 404, "{bad}: answered {status} {body}");
-        assert!(!body.contains("root:"), "{bad} leaked a file");
+        assert!(!body.contains("root:") && !body.contains("SECRET"), "{bad} leaked a file");
     }
     // A page elsewhere that rebinds its name to 127.0.0.1 sends its own Host: refused.
     let port = st.url.rsplit(':').next().unwrap().trim_end_matches('/');
@@ -109,6 +119,20 @@ fn the_station_refuses_paths_out_of_its_folder_foreign_hosts_and_a_second_contro
     assert!(status == 409 && body.contains("another operator"), "{status} {body}");
     let (status, _) = request(&st.url, "POST", "/api/check", None, &[("X-Scanrig-Control", "guessed")]);
     assert_eq!(status, 409);
+    // Another site's page cannot post to the station: not as a form or plain text, not from its origin.
+    let port_host = format!("127.0.0.1:{port}");
+    for headers in [
+        vec![("Content-Type", "text/plain")],
+        vec![("Content-Type", "application/x-www-form-urlencoded")],
+        vec![("Content-Type", "application/json"), ("Origin", "http://evil.example")],
+        vec![("Content-Type", "application/json"), ("Sec-Fetch-Site", "cross-site")],
+    ] {
+        let (status, body) = request(&st.url, "POST", "/api/control", Some(&port_host), &headers);
+        assert_eq!(status, 403, "{headers:?}: {body}");
+    }
+    let origin = format!("http://{port_host}");
+    let (status, _) = request(&st.url, "POST", "/api/release", Some(&port_host), &[("Origin", origin.as_str())]);
+    assert_eq!(status, 409, "same origin, but without the control token");
 
     // Beyond loopback, the token printed at start is needed for everything, the page included.
     let wide = serve(d.path(), &["--bind", "0.0.0.0"]);
@@ -116,7 +140,8 @@ fn the_station_refuses_paths_out_of_its_folder_foreign_hosts_and_a_second_contro
     assert!(token.len() >= 32, "{token}");
     for path in ["/", "/api/state", "/files/scan1/processed/report.html"] {
         assert_eq!(request(&wide.url, "GET", path, Some("scanner.lan"), &[]).0, 403, "{path} without the token");
-        assert_eq!(request(&wide.url, "GET", &format!("{path}?token=0{}", &token[1..]), None, &[]).0, 403);
+        let wrong = format!("{}{}", if token.starts_with('0') { '1' } else { '0' }, &token[1..]);
+        assert_eq!(request(&wide.url, "GET", &format!("{path}?token={wrong}"), None, &[]).0, 403);
     }
     let (status, body) = request(&wide.url, "GET", "/api/state", Some("scanner.lan"), &[("X-Scanrig-Token", token)]);
     assert_eq!(status, 200, "{body}");
@@ -177,11 +202,12 @@ fn an_operator_checks_calibrates_scans_and_processes_in_the_browser() {
         run["second_controller"].as_str().unwrap().contains("another operator")
             && run["second_buttons_disabled"] == true
     );
+    assert_eq!(run["second_refusal_logged"].as_array().unwrap().len(), 1, "the refusal, and only it");
     // Live: every view drawn within a second of its capture; clicks answered within 200 ms while
     // the mesh was being made.
     let lags = run["lags_ms"].as_object().unwrap();
     assert_eq!(lags.len(), 12, "{lags:?}");
-    assert!(lags.values().all(|l| l.as_i64().unwrap() < 1000), "{lags:?}");
+    assert!(lags.values().all(|l| (0..1000).contains(&l.as_i64().unwrap())), "{lags:?}");
     let clicks = run["clicks_ms"].as_array().unwrap();
     assert!(!clicks.is_empty() && clicks.iter().all(|c| c.as_i64().unwrap() < 200), "{clicks:?}");
     // The fault: said on the page, the views kept, and the scan resumed to the end.
@@ -253,7 +279,7 @@ fn an_operator_checks_calibrates_scans_and_processes_in_the_browser() {
 
 /// (status, body) of a POST with a JSON body from the controller.
 fn post(url: &str, path: &str, control: &str, body: &str) -> (u16, String) {
-    send(url, "POST", path, None, &[("X-Scanrig-Control", control), ("Content-Type", "application/json")], body)
+    send(url, "POST", path, None, &[("X-Scanrig-Control", control)], body)
 }
 
 #[test]
@@ -282,19 +308,19 @@ fn hostile_requests_are_refused_by_name_and_leave_the_station_and_the_disk_as_th
         ("/api/turntable", r#"{"nothing": 1}"#.into(), "angle"),
         ("/api/devices", r#"{"turntable": "/dev/nonexistent-port"}"#.into(), "turntable"),
         ("/api/devices", r#"{"camera": "/no/such/folder"}"#.into(), "camera"),
-        ("/api/calibrate/capture", r#"{"kind": "sideways"}"#.into(), ""),
+        ("/api/calibrate/capture", r#"{"kind": "sideways"}"#.into(), "kind"),
+        ("/api/calibrate/capture", r#"{"kind": 3}"#.into(), "kind"),
+        ("/api/camera", r#"{"exposure": 0}"#.into(), "exposure"),
+        ("/api/camera", r#"{"exposure": "bright"}"#.into(), "exposure"),
+        ("/api/projector", r#"{"pattern": "plaid"}"#.into(), "pattern"),
         ("/api/calibrate/review", r#"{"index": 99999, "accept": true}"#.into(), "index"),
         ("/api/calibrate/review", r#"{"index": -1, "accept": "yes"}"#.into(), "index"),
+        ("/api/calibrate/review", r#"{"index": 0, "accept": "yes"}"#.into(), "accept"),
         ("/api/nowhere", "{}".into(), "not found"),
     ];
     for (path, body, names) in &cases {
         let (status, answer) = post(&st.url, path, token, body);
-        // A job refused when it starts answers 202 and then says why as a fault event; everything
-        // else is refused at once, naming what is wrong.
-        if *path == "/api/calibrate/capture" {
-            assert!(status == 202 || status == 400 || status == 409, "{path} {body}: {status} {answer}");
-            continue;
-        }
+        // Refused at once, naming what is wrong.
         assert!((400..500).contains(&status), "{path} {body}: answered {status} {answer}");
         assert!(answer.contains(names), "{path} {body}: the refusal does not name {names:?}: {answer}");
         assert!(!answer.contains("panicked"), "{answer}");
@@ -316,9 +342,15 @@ fn events_until(url: &str, kind: &str, until: &str, start: impl FnOnce()) -> Vec
     let mut s = TcpStream::connect(&addr).unwrap();
     s.set_read_timeout(Some(std::time::Duration::from_secs(60))).unwrap();
     s.write_all(format!("GET /api/events HTTP/1.0\r\nHost: {addr}\r\n\r\n").as_bytes()).unwrap();
+    let (mut name, mut reader) = (String::new(), BufReader::new(s));
+    // The stream is open (its head and first event read) before the work starts.
+    let mut head = String::new();
+    while !head.starts_with("retry:") {
+        head.clear();
+        reader.read_line(&mut head).unwrap();
+    }
     start();
     let mut events = Vec::new();
-    let (mut name, mut reader) = (String::new(), BufReader::new(s));
     loop {
         let mut line = String::new();
         if reader.read_line(&mut line).unwrap_or(0) == 0 {
@@ -328,7 +360,7 @@ fn events_until(url: &str, kind: &str, until: &str, start: impl FnOnce()) -> Vec
             name = n.trim().to_string();
         } else if let Some(d) = line.strip_prefix("data: ") {
             let v: serde_json::Value = serde_json::from_str(d.trim()).unwrap();
-            let done = name == kind && v.to_string().contains(until);
+            let done = name == kind && v["name"] == until;
             events.push((name.clone(), v));
             if done {
                 return events;
@@ -354,7 +386,11 @@ fn a_laser_rig_is_checked_and_its_line_shown_with_the_pipeline_s_own_extraction(
             verdicts.iter().find(|v| v["name"] == name).unwrap_or_else(|| panic!("no {name} verdict: {verdicts:?}"));
         assert_eq!(v["ok"], true, "{v}");
     }
-    // The live view's laser line: the pipeline's extraction, every reason named.
+    // The live view's laser line: the pipeline's extraction, every reason named (once the check's
+    // job has let go of the rig).
+    while request(&st.url, "GET", "/api/state", None, &[]).1.contains("\"job\":{") {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
     let (status, body) = request(&st.url, "GET", "/api/live?show=laser", None, &[("X-Scanrig-Control", &token)]);
     assert_eq!(status, 200, "{body}");
     let live: serde_json::Value = serde_json::from_str(&body).unwrap();
