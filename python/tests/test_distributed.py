@@ -124,6 +124,8 @@ def ray_workers_running(task: str) -> list[int]:
 
 def test_a_worker_killed_mid_batch_loses_and_doubles_nothing(cluster, scans):
     root, folders = scans
+    # One scan is enough to lose or double a view (the batch test runs both; CI time).
+    folders = folders[:1]
     outs = [root / f"killed{k}" for k in range(len(folders))]
     killed = []
 
