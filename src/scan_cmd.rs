@@ -81,17 +81,7 @@ pub fn scan(args: &ScanArgs) -> Result<()> {
             let Some(b) = &board else {
                 bail!("the simulator camera needs the virtual turntable (leave out --port), or give --camera FOLDER");
             };
-            Box::new(SimCamera {
-                cfg: &cfg,
-                scene: &scene,
-                rays: sim::pixel_rays(&cfg.rig.camera),
-                lights: sim::scan::lights_for(&cfg, &program),
-                program: program.clone(),
-                seed: args.world.seed,
-                board: b.state.clone(),
-                shown: shown.clone(),
-                geometry: None,
-            })
+            Box::new(SimCamera::new(&cfg, &scene, &program, args.world.seed, b.state.clone(), shown.clone()))
         }
     };
     eprintln!(

@@ -26,6 +26,31 @@ pub struct SimCamera<'a> {
     pub geometry: Option<(f64, ViewGeometry)>,
 }
 
+impl<'a> SimCamera<'a> {
+    /// The simulator showing `scene` with `cfg`'s sensor, its lights made for `program`, watching
+    /// the virtual `board` and the simulated projector's `shown` pattern.
+    pub fn new(
+        cfg: &'a SimConfig,
+        scene: &'a Scene,
+        program: &[Pattern],
+        seed: u64,
+        board: Arc<Mutex<BoardState>>,
+        shown: Arc<Mutex<Option<Pattern>>>,
+    ) -> Self {
+        SimCamera {
+            cfg,
+            scene,
+            rays: sim::pixel_rays(&cfg.rig.camera),
+            lights: sim::scan::lights_for(cfg, program),
+            program: program.to_vec(),
+            seed,
+            board,
+            shown,
+            geometry: None,
+        }
+    }
+}
+
 impl Camera for SimCamera<'_> {
     fn size(&self) -> (u32, u32) {
         (self.cfg.rig.camera.width, self.cfg.rig.camera.height)

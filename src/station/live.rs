@@ -68,17 +68,14 @@ pub fn live_camera<'a>(
     match st.devices.camera() {
         CameraChoice::Simulator => {
             let Some(board) = &link.board else { bail!("the simulator camera watches the virtual turntable only") };
-            Ok(Box::new(SimCamera {
-                cfg: what.cfg,
-                scene: what.scene,
-                rays: sim::pixel_rays(&what.cfg.rig.camera),
-                lights: sim::scan::lights_for(what.cfg, what.program),
-                program: what.program.to_vec(),
-                seed: what.seed,
-                board: board.state.clone(),
-                shown: shown.clone(),
-                geometry: None,
-            }))
+            Ok(Box::new(SimCamera::new(
+                what.cfg,
+                what.scene,
+                what.program,
+                what.seed,
+                board.state.clone(),
+                shown.clone(),
+            )))
         }
         CameraChoice::Device(path) => crate::scan_cmd::open_v4l2(&path, &st.rig()?),
         CameraChoice::Folder(_) => {

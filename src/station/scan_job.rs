@@ -5,8 +5,9 @@
 
 use super::devices::CameraChoice;
 use super::events::now_ms;
+use super::live::{Shooting, live_camera};
 use super::{Station, projects};
-use crate::virtual_rig::{SimCamera, SimProjector, capture_program};
+use crate::virtual_rig::{SimProjector, capture_program};
 use acquire::camera::{Camera, PatternOutput};
 use anyhow::{Context, Result, bail};
 use process::pipeline::layout::Layout;
@@ -78,21 +79,13 @@ pub fn run(st: &Arc<Station>, project: &str, views: usize) -> Result<()> {
             }
             Box::new(replay)
         }
-        CameraChoice::Device(path) => crate::scan_cmd::open_v4l2(&path, &rig)?,
-        CameraChoice::Simulator => {
-            let Some(board) = &link.board else { bail!("the simulator camera needs the virtual turntable") };
-            Box::new(SimCamera {
-                cfg: &cfg,
-                scene: &scene,
-                rays: sim::pixel_rays(&cfg.rig.camera),
-                lights: sim::scan::lights_for(&cfg, &program),
-                program: program.clone(),
-                seed: st.world.seed,
-                board: board.state.clone(),
-                shown: shown.clone(),
-                geometry: None,
-            })
-        }
+        // The simulator or a V4L2 camera, as the live view and the check take them.
+        _ => live_camera(
+            st,
+            Shooting { cfg: &cfg, scene: &scene, program: &program, seed: st.world.seed },
+            &link,
+            &shown,
+        )?,
     };
 
     // Each view, once on disk, goes to the live worker: decoded, triangulated and sent while the
