@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use rig::TriMesh;
 use rig::math::{Point3, Real};
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// What trimming did.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -34,7 +34,7 @@ pub struct TrimReport {
 /// Removes the triangles whose centre is farther than `max_distance` from every point of `samples`
 /// (but never one lying wholly at or below z = `keep_below`: the base cut at the platter, its skirt and
 /// cap), keeps the result manifold, and with `fill` closes each hole trimming made by a fan from its
-/// centre (holes at or below `keep_below`, an open base, stay open). A fan is flat-ish only where the hole
+/// centre (openings the mesh had before, an open base, stay open). A fan is flat-ish only where the hole
 /// is: a hole curving far round the object is better left open (the default).
 pub fn trim(
     mesh: &TriMesh,
@@ -61,15 +61,20 @@ pub fn trim(
     let mut faces: Vec<[u32; 3]> = mesh.faces.iter().zip(&keep).filter(|(_, k)| **k).map(|(f, _)| *f).collect();
     report.removed = mesh.faces.len() - faces.len();
     let mut vertices = mesh.vertices.clone();
-    report.split_vertices = split_pinched_vertices(&mut vertices, &mut faces);
+    let mut source: Vec<u32> = (0..vertices.len() as u32).collect();
+    report.split_vertices = split_pinched_vertices(&mut vertices, &mut faces, &mut source);
     let loops = boundary_loops(&faces);
     report.holes = loops.len();
     if fill {
-        let base_loop = |lp: &Vec<u32>, vertices: &[Point3]| {
-            keep_below.is_some_and(|z| lp.iter().all(|&v| vertices[v as usize].z <= z))
+        // An opening the mesh had before trimming (an open base) stays open, and so does a hole that
+        // trimming joined to one. Which loops those are is told by their edges, not by where they lie:
+        // a hole trimmed beside a flat base's cap runs along the platter too, and must be closed.
+        let before = boundary_edges(&mesh.faces);
+        let opening = |lp: &Vec<u32>| {
+            (0..lp.len()).any(|k| before.contains(&(source[lp[k] as usize], source[lp[(k + 1) % lp.len()] as usize])))
         };
         for lp in &loops {
-            if base_loop(lp, &vertices) {
+            if opening(lp) {
                 continue;
             }
             let centre = lp.iter().map(|&v| vertices[v as usize].coords).sum::<rig::math::Vector3>() / lp.len() as Real;
@@ -99,7 +104,7 @@ pub fn trim(
 
 /// Splits every vertex whose triangles form more than one fan (connected through edges at the vertex)
 /// into one vertex per fan. Returns the number of copies made.
-fn split_pinched_vertices(vertices: &mut Vec<Point3>, faces: &mut [[u32; 3]]) -> usize {
+fn split_pinched_vertices(vertices: &mut Vec<Point3>, faces: &mut [[u32; 3]], source: &mut Vec<u32>) -> usize {
     let mut incident: Vec<Vec<usize>> = vec![Vec::new(); vertices.len()];
     for (fi, f) in faces.iter().enumerate() {
         for &v in f {
@@ -144,6 +149,7 @@ fn split_pinched_vertices(vertices: &mut Vec<Point3>, faces: &mut [[u32; 3]]) ->
                     v as u32
                 } else {
                     vertices.push(vertices[v]);
+                    source.push(source[v]);
                     copies += 1;
                     (vertices.len() - 1) as u32
                 }
@@ -158,20 +164,20 @@ fn split_pinched_vertices(vertices: &mut Vec<Point3>, faces: &mut [[u32; 3]]) ->
     copies
 }
 
+/// The directed edges that no triangle has reversed.
+fn boundary_edges(faces: &[[u32; 3]]) -> HashSet<(u32, u32)> {
+    let directed: HashSet<(u32, u32)> =
+        faces.iter().flat_map(|f| (0..3).map(move |k| (f[k], f[(k + 1) % 3]))).collect();
+    directed.iter().filter(|&&(a, b)| !directed.contains(&(b, a))).copied().collect()
+}
+
 /// The boundary loops: chains of directed edges that no triangle has reversed.
 fn boundary_loops(faces: &[[u32; 3]]) -> Vec<Vec<u32>> {
-    let mut directed: HashMap<(u32, u32), ()> = HashMap::with_capacity(3 * faces.len());
-    for f in faces {
-        for k in 0..3 {
-            directed.insert((f[k], f[(k + 1) % 3]), ());
-        }
-    }
-    let mut next: HashMap<u32, u32> = HashMap::new();
-    for &(a, b) in directed.keys() {
-        if !directed.contains_key(&(b, a)) {
-            next.insert(a, b);
-        }
-    }
+    // Sorted, so a vertex with two ways out (possible only before pinched vertices are split) keeps
+    // the same one on every run.
+    let mut edges: Vec<(u32, u32)> = boundary_edges(faces).into_iter().collect();
+    edges.sort_unstable();
+    let mut next: HashMap<u32, u32> = edges.into_iter().collect();
     let mut starts: Vec<u32> = next.keys().copied().collect();
     starts.sort_unstable();
     let mut loops = Vec::new();
@@ -199,18 +205,23 @@ fn boundary_loops(faces: &[[u32; 3]]) -> Vec<Vec<u32>> {
 mod tests {
     use super::*;
 
-    /// An octahedron whose samples cover only its upper half: the lower faces go, the rest stays
-    /// manifold with one hole; filled, it is closed again.
-    #[test]
-    fn surface_far_from_the_samples_goes_and_the_rest_stays_manifold() {
-        let v = vec![
+    /// The six corners of an octahedron of radius 10 about the origin, poles last.
+    fn octahedron() -> Vec<Point3> {
+        vec![
             Point3::new(10.0, 0.0, 0.0),
             Point3::new(0.0, 10.0, 0.0),
             Point3::new(-10.0, 0.0, 0.0),
             Point3::new(0.0, -10.0, 0.0),
             Point3::new(0.0, 0.0, 10.0),
             Point3::new(0.0, 0.0, -10.0),
-        ];
+        ]
+    }
+
+    /// An octahedron whose samples cover only its upper half: the lower faces go, the rest stays
+    /// manifold with one hole; filled, it is closed again.
+    #[test]
+    fn surface_far_from_the_samples_goes_and_the_rest_stays_manifold() {
+        let v = octahedron();
         let faces = vec![[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4], [1, 0, 5], [2, 1, 5], [3, 2, 5], [0, 3, 5]];
         let m = TriMesh { vertices: v, faces, normals: None };
         let samples: Vec<Point3> = m.faces[..4]
@@ -225,12 +236,35 @@ mod tests {
         assert!(closed.signed_volume() > 0.0);
     }
 
+    /// An opening the mesh already had (here one lower face missing: an open base) stays open when
+    /// holes are filled; the hole trimming made, on the far side, is closed.
+    #[test]
+    fn filling_closes_what_trimming_opened_and_leaves_the_mesh_s_own_opening() {
+        let v = octahedron();
+        // [1, 0, 5] is missing: the opening. The samples leave [2, 3, 4] out, which shares no vertex with it.
+        let faces = vec![[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4], [2, 1, 5], [3, 2, 5], [0, 3, 5]];
+        let m = TriMesh { vertices: v, faces, normals: None };
+        let centre = |f: &[u32; 3]| {
+            Point3::from(f.iter().map(|&i| m.vertices[i as usize].coords).sum::<rig::math::Vector3>() / 3.0)
+        };
+        let samples: Vec<Point3> = m.faces.iter().filter(|f| **f != [2, 3, 4]).map(centre).collect();
+        let (filled, r) = trim(&m, &samples, 1.0, true, None);
+        assert_eq!((r.removed, r.holes, r.fill_triangles), (1, 2, 3), "{r:?}");
+        let left = boundary_loops(&filled.faces);
+        assert_eq!(left.len(), 1, "{left:?}");
+        let mut corners: Vec<[i64; 3]> =
+            left[0].iter().map(|&i| filled.vertices[i as usize].coords.map(|c| c.round() as i64).into()).collect();
+        corners.sort_unstable();
+        assert_eq!(corners, vec![[0, 0, -10], [0, 10, 0], [10, 0, 0]], "the opening left is the mesh's own");
+    }
+
     /// Two triangles that touch at one vertex only: the vertex is split, one copy per fan.
     #[test]
     fn a_pinched_vertex_is_split() {
         let mut v = vec![Point3::origin(); 5];
         let mut faces = vec![[0, 1, 2], [0, 3, 4]];
-        assert_eq!(split_pinched_vertices(&mut v, &mut faces), 1);
+        let mut source = (0..v.len() as u32).collect();
+        assert_eq!(split_pinched_vertices(&mut v, &mut faces, &mut source), 1);
         assert_eq!(v.len(), 6);
         assert_ne!(faces[0][0], faces[1][0]);
     }
