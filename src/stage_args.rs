@@ -46,7 +46,7 @@ impl DecodeOpts {
 }
 
 fn defaults() -> DenoiseParams {
-    DenoiseParams::default()
+    DenoiseParams::thesis()
 }
 
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -74,20 +74,22 @@ pub struct DenoiseOpts {
     /// Displacement direction.
     #[arg(long, value_enum, default_value = "normal")]
     pub direction: DirectionArg,
-    /// Neighbourhood N size (odd: 7 means 7x7).
-    #[arg(long, default_value_t = 2 * defaults().window + 1)]
-    pub window: usize,
-    /// Similarity patch O size (odd: 5 means 5x5).
-    #[arg(long, default_value_t = default_patch())]
-    pub patch: usize,
-    /// Filter passes.
-    #[arg(long, default_value_t = defaults().iterations)]
-    pub iterations: usize,
+    /// Neighbourhood N size (odd: 7 means 7x7). Default: chosen per grid from its measured noise and
+    /// sampling; giving this, --patch, --iterations or --bandwidth sets the sizes by hand instead (the
+    /// ones not given take the thesis's: N 7x7, patch 5x5, one pass, d and s of section 4.3.2).
+    #[arg(long)]
+    pub window: Option<usize>,
+    /// Similarity patch O size (odd: 5 means 5x5). Default: chosen per grid (see --window).
+    #[arg(long)]
+    pub patch: Option<usize>,
+    /// Filter passes. Default: chosen per grid (see --window).
+    #[arg(long)]
+    pub iterations: Option<usize>,
     /// Keep N the same size near holes and borders.
     #[arg(long)]
     pub no_adaptive: bool,
-    /// Bandwidths d and s of eq. 4.4 in the file's units, as D,S (default: estimated per grid, d = 0.75 μd
-    /// and s = σs, section 4.3.2).
+    /// Bandwidths d and s of eq. 4.4 in the file's units, as D,S (default: d = 0.75 μd of section 4.3.2,
+    /// s from the grid's measured noise; with sizes set by hand, s = σs of section 4.3.2).
     #[arg(long, value_parser = parse_bandwidth)]
     pub bandwidth: Option<(f64, f64)>,
     /// Keep cells without a valid neighbour (they cannot be filtered, and are mostly flying pixels, so
@@ -118,21 +120,27 @@ fn half(size: usize, what: &str) -> Result<usize> {
 impl DenoiseOpts {
     pub fn params(&self) -> Result<DenoiseStage> {
         let d = DenoiseStage::default();
+        let by_hand =
+            self.window.is_some() || self.patch.is_some() || self.iterations.is_some() || self.bandwidth.is_some();
+        let thesis = DenoiseParams::thesis();
         let p = DenoiseStage {
             filter: DenoiseParams {
-                window: half(self.window, "window")?,
+                window: half(self.window.unwrap_or(2 * thesis.window + 1), "window")?,
                 similarity: match self.filter {
-                    FilterArg::NonLocal => Similarity::NonLocal { half: half(self.patch, "patch")? },
+                    FilterArg::NonLocal => {
+                        Similarity::NonLocal { half: half(self.patch.unwrap_or_else(default_patch), "patch")? }
+                    }
                     FilterArg::Bilateral => Similarity::Bilateral,
                 },
                 direction: match self.direction {
                     DirectionArg::Sight => Direction::LineOfSight,
                     DirectionArg::Normal => Direction::Normal,
                 },
-                iterations: self.iterations,
+                iterations: self.iterations.unwrap_or(thesis.iterations),
                 adaptive: !self.no_adaptive,
                 bandwidth: self.bandwidth,
                 drop_isolated: !self.keep_isolated,
+                from_noise: !by_hand,
                 ..d.filter
             },
             ..d

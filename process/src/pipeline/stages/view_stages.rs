@@ -109,8 +109,8 @@ pub fn grid_colours(grid: &RangeGrid, texture: &rig::image::Image8) -> Option<Ve
 pub const DECODE: StageCode = StageCode { stage: "decode", version: 1 };
 /// The triangulate stage's code version.
 pub const TRIANGULATE: StageCode = StageCode { stage: "triangulate", version: 1 };
-/// The denoise stage's code version.
-pub const DENOISE: StageCode = StageCode { stage: "denoise", version: 1 };
+/// The denoise stage's code version (2: sizes from each grid's measured noise by default).
+pub const DENOISE: StageCode = StageCode { stage: "denoise", version: 2 };
 /// The laser line stage's code version (extraction and triangulation of one laser's frame; 2: a texture
 /// frame of another size than the camera's is no longer sampled, clamped, for colours).
 pub const LASER_LINE: StageCode = StageCode { stage: "laser_line", version: 2 };
