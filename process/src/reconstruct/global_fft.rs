@@ -87,9 +87,7 @@ pub enum ReconstructError {
     #[error("the cloud has no normals: reconstruction needs oriented points (run `scanrig fuse` first)")]
     NoNormals,
     /// The grid would not fit the memory budget.
-    #[error(
-        "a {n}³ grid needs {need:.2} GB, over the {budget:.2} GB budget (--memory-budget): lower --depth, or use --method adfft"
-    )]
+    #[error("a {n}³ grid needs {need:.2} GB, over the {budget:.2} GB budget (--memory-budget): {hint}")]
     TooLarge {
         /// Grid size.
         n: usize,
@@ -97,6 +95,8 @@ pub enum ReconstructError {
         need: f64,
         /// Gigabytes allowed.
         budget: f64,
+        /// What to do instead.
+        hint: &'static str,
     },
     /// A parameter is out of range.
     #[error("{0}")]
@@ -114,7 +114,9 @@ pub enum ReconstructError {
 /// `method` names it for the message.
 pub fn check_memory(need: u64, n: usize, budget: u64, method: &str) -> Result<(), ReconstructError> {
     if need > budget {
-        return Err(ReconstructError::TooLarge { n, need: need as f64 / 1e9, budget: budget as f64 / 1e9 });
+        // AdFFT is what the global method's message points to; AdFFT's own can only point down.
+        let hint = if method.contains("adfft") { "lower --depth" } else { "lower --depth, or use --method adfft" };
+        return Err(ReconstructError::TooLarge { n, need: need as f64 / 1e9, budget: budget as f64 / 1e9, hint });
     }
     let what = format!("reconstruction on a {n}³ grid ({method})");
     rig::memory::check(Some(need), &what, "lower --depth")?;

@@ -3,7 +3,7 @@
 use process::kd_tree::PointTree;
 use process::normals::pca_normals;
 use process::reconstruct::adfft::{AdFftParams, reconstruct_adfft};
-use process::reconstruct::global_fft::{FftParams, reconstruct_fft};
+use process::reconstruct::global_fft::{FftParams, ReconstructError, reconstruct_fft};
 use rig::math::{Point3, Real, Vector3};
 use rig::topology::topology;
 use rig::{PointCloud, TriMesh};
@@ -149,6 +149,14 @@ fn bunny_scans_reconstruct_close_to_the_zipper_mesh() {
         let (mesh, cell, detail) = if method == "AdFFT" {
             let p = AdFftParams { depth, ..Default::default() };
             let (m, r) = reconstruct_adfft(&cloud, &p).unwrap();
+            // The up-front estimate of the mesh, which sizes the memory estimate (issue 42).
+            let ratio = r.estimated_triangles as Real / m.faces.len() as Real;
+            assert!(
+                (0.95..=1.05).contains(&ratio),
+                "estimated {} triangles, made {}",
+                r.estimated_triangles,
+                m.faces.len()
+            );
             let detail = format!(
                 "{} patches by depth {:?}, {} tests, ≤ {} in memory; self-intersections {:?}",
                 r.leaves(),
@@ -194,6 +202,19 @@ fn bunny_scans_reconstruct_close_to_the_zipper_mesh() {
     assert!(means[0].0 < 0.075, "global FFT 256³: {}", means[0].0);
     assert!(means[2].0 < means[0].0, "AdFFT 512³ {} vs global 256³ {}", means[2].0, means[0].0);
     assert!(means[1].0 <= 0.054, "AdFFT 256³ {} vs screened Poisson's 0.054", means[1].0);
+
+    // Issue 42: depth 11 ran for hours, also under `--memory-budget 1`, because the estimate left out
+    // the mesh (≈ 23 M triangles here). Now it is refused up front, after the octree alone, with the
+    // estimate (5.45 GB measured) and a hint that does not send AdFFT to itself.
+    let p = AdFftParams { depth: 11, memory_budget: 1_000_000_000, ..Default::default() };
+    match reconstruct_adfft(&cloud, &p) {
+        Err(e @ ReconstructError::TooLarge { n: 2048, need, .. }) => {
+            let said = e.to_string();
+            assert!((4.0..8.0).contains(&need), "{said}");
+            assert!(said.contains("lower --depth") && !said.contains("--method adfft"), "{said}");
+        }
+        other => panic!("depth 11 under a 1 GB budget: {:?}", other.map(|(_, r)| r.estimated_bytes)),
+    }
 }
 
 #[test]
