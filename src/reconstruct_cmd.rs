@@ -54,7 +54,20 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
         top_z: None,
         force: args.force,
     };
-    let made = stages::mesh(&cloud, &mp).with_context(context)?;
+    // Progress from inside: AdFFT's sweep, plane by plane (minutes at depth 10).
+    let mut progress = crate::progress::Progress::new();
+    let made = process::pipeline::watch::watched(
+        mp.reconstruct.counted_steps(),
+        |steps| stages::mesh_counting(&cloud, &mp, steps),
+        // The global method counts no steps: no line for it.
+        |done, total| {
+            if total > 1 {
+                progress.update("reconstructing", done, total)
+            }
+        },
+    );
+    progress.finish();
+    let made = made.with_context(context)?;
     let (report, finished, mesh) = (&made.report.reconstruct, &made.report.finish, &made.mesh);
     if let Some(b) = finished.base {
         eprintln!(

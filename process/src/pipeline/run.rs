@@ -271,7 +271,7 @@ fn scan_steps(
         return Ok(());
     }
     let input = close_step(cx, report, fused)?;
-    let mesh = mesh_step(cx, report, input, crop)?;
+    let mesh = mesh_step(cx, report, input, crop, progress)?;
     // A laser scan's lines far apart for this mesh's cell: ribs, said whether the mesh ran or was reused.
     let cell = report.reconstruct.as_ref().map(|r| r.report.reconstruct.cell());
     if let (Some(s), Some(cell)) = (line_spacing, cell) {

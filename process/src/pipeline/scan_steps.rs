@@ -309,6 +309,7 @@ pub(super) fn mesh_step(
     report: &mut ProcessReport,
     mut input: Handed<PointCloud>,
     crop: &CropParams,
+    progress: &mut impl Progress,
 ) -> Result<Handed<TriMesh>, Error> {
     let (o, rig, method, params) = (cx.o, cx.rig, cx.method, cx.params);
     let on_turntable = rig.turntable.is_some();
@@ -329,8 +330,18 @@ pub(super) fn mesh_step(
     let mut warnings = Vec::new();
     let step = o.step(&[layout::MESH], fp, Scope::Scan, |fp| {
         let cloud = input.take(o)?;
-        let made = stages::mesh(&cloud, &mp)
-            .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source: laser_hint(source, method, views) })?;
+        // Progress from inside: AdFFT's sweep, plane by plane (minutes at depth 10).
+        let made = super::watch::watched(
+            mp.reconstruct.counted_steps(),
+            |steps| stages::mesh_counting(&cloud, &mp, steps),
+            // The global method counts no steps: its 1 of 1 is said when the stage ends.
+            |done, total| {
+                if total > 1 {
+                    progress(Stage::Reconstruct, done, total)
+                }
+            },
+        )
+        .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source: laser_hint(source, method, views) })?;
         drop(cloud);
         warnings = made.warnings.iter().map(|w| format!("{}: {w}", layout::MESH)).collect();
         let bytes = rig::ply::mesh_to_bytes(&made.output, &o.object_opts());

@@ -30,6 +30,7 @@ use rayon::prelude::*;
 use rig::TriMesh;
 use rig::math::{Point3, Real, Vector3};
 use serde::Serialize;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Settings of AdFFT.
@@ -465,11 +466,21 @@ pub fn reconstruct_adfft<'a>(
     cloud: impl Into<rig::CloudRef<'a>>,
     params: &AdFftParams,
 ) -> Result<(TriMesh, AdFftReport), super::global_fft::ReconstructError> {
+    reconstruct_adfft_counting(cloud, params, &AtomicUsize::new(0))
+}
+
+/// [`reconstruct_adfft`], counting in `planes` the sweep's planes done (up to 2^depth), for a
+/// progress display ([`crate::pipeline::watch`]): at depth 10 the sweep runs for minutes.
+pub fn reconstruct_adfft_counting<'a>(
+    cloud: impl Into<rig::CloudRef<'a>>,
+    params: &AdFftParams,
+    planes: &AtomicUsize,
+) -> Result<(TriMesh, AdFftReport), super::global_fft::ReconstructError> {
     let cloud = cloud.into();
     let plan = plan(cloud, params)?;
     let (grid, leaves) = (plan.grid(params), plan.tasks());
     // Each leaf is solved when the sweep reaches its support, those starting on one plane in parallel.
-    Ok(sweep(plan, cloud, params, |samples, starting| {
+    Ok(sweep(plan, cloud, params, planes, |samples, starting| {
         starting.par_iter().map(|&l| solve_leaf(samples, &leaves[l], &grid)).collect()
     }))
 }
@@ -502,7 +513,7 @@ pub fn reconstruct_adfft_with<'a>(
         }
     }
     let mut solved: Vec<Option<SolvedLeaf>> = solved.into_iter().map(Some).collect();
-    Ok(sweep(plan, cloud, params, |_, starting| {
+    Ok(sweep(plan, cloud, params, &AtomicUsize::new(0), |_, starting| {
         starting.iter().map(|&l| solved[l].take().expect("the sweep starts each leaf once")).collect()
     }))
 }
@@ -617,6 +628,7 @@ fn sweep(
     plan: Plan<'_>,
     cloud: rig::CloudRef<'_>,
     params: &AdFftParams,
+    planes: &AtomicUsize,
     mut solve: impl FnMut(&Samples, &[usize]) -> Vec<Solved>,
 ) -> (TriMesh, AdFftReport) {
     let Plan { samples, leaves, ranges, origin, size, h, n, mut report } = plan;
@@ -676,6 +688,7 @@ fn sweep(
                 row[i] = num[i] / den[i];
             }
         });
+        planes.fetch_add(1, Ordering::Relaxed);
         plane
     });
     report.peak_active_leaves = peak_active;
@@ -703,6 +716,12 @@ mod tests {
         let worst = mesh.vertices.iter().map(|p| (p.coords.norm() - 40.0).abs()).fold(0.0, Real::max);
         assert!(worst <= report.cell, "Hausdorff {worst} vs cell {}; {report:?}", report.cell);
         assert!(report.leaves() > 1);
+        // The progress count reaches every plane of the sweep, and the counted run makes the same mesh.
+        let planes = AtomicUsize::new(0);
+        let (counted, _) =
+            reconstruct_adfft_counting(&cloud, &AdFftParams { depth: 7, ..Default::default() }, &planes).unwrap();
+        assert_eq!(planes.load(Ordering::Relaxed), 128);
+        assert_eq!(counted, mesh);
     }
 
     /// Leaves solved elsewhere (here: a `LeafSolver` of their own, as a worker builds one from the

@@ -3,7 +3,7 @@
 use super::StageError;
 use crate::kd_tree::PointTree;
 use crate::pipeline::records::{Fingerprint, StageCode};
-use crate::reconstruct::adfft::{AdFftParams, AdFftReport, reconstruct_adfft};
+use crate::reconstruct::adfft::{AdFftParams, AdFftReport, reconstruct_adfft_counting};
 pub use crate::reconstruct::base::{Base, BaseReport};
 use crate::reconstruct::closing::{CloseParams, CloseReport, close_openings};
 use crate::reconstruct::global_fft::{FftParams, FftReport, reconstruct_fft_in};
@@ -12,6 +12,7 @@ use rig::math::{Point3, Real};
 use rig::{PointCloud, PolyMesh, TriMesh};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
+use std::sync::atomic::AtomicUsize;
 
 /// The reconstruction method and its parameters (ch. 5).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -29,6 +30,15 @@ impl ReconstructParams {
         match self {
             ReconstructParams::Fft(p) => p.depth,
             ReconstructParams::Adfft(p) => p.depth,
+        }
+    }
+
+    /// The steps [`mesh_counting`] counts: AdFFT's sweep, plane by plane (2^depth); the global
+    /// method, seconds long at its largest grid, counts none (1: done when it returns).
+    pub fn counted_steps(&self) -> usize {
+        match self {
+            ReconstructParams::Fft(_) => 1,
+            ReconstructParams::Adfft(p) => 1usize << p.depth.min(16),
         }
     }
 }
@@ -85,7 +95,7 @@ pub fn reconstruct<'a>(
     cloud: impl Into<rig::CloudRef<'a>>,
     params: &ReconstructParams,
 ) -> Result<(TriMesh, ReconstructReport), StageError> {
-    reconstruct_in(cloud, params, None)
+    reconstruct_in(cloud, params, None, &AtomicUsize::new(0))
 }
 
 /// [`reconstruct`] with a k-d tree over the cloud's positions the caller already has (`None`: built
@@ -95,6 +105,7 @@ pub fn reconstruct_in<'a>(
     cloud: impl Into<rig::CloudRef<'a>>,
     params: &ReconstructParams,
     tree: Option<&PointTree>,
+    steps: &AtomicUsize,
 ) -> Result<(TriMesh, ReconstructReport), StageError> {
     let cloud = cloud.into();
     check_finite(cloud)?;
@@ -105,7 +116,7 @@ pub fn reconstruct_in<'a>(
             (m, ReconstructReport::Fft(r))
         }
         ReconstructParams::Adfft(p) => {
-            let (m, r) = reconstruct_adfft(cloud, p)?;
+            let (m, r) = reconstruct_adfft_counting(cloud, p, steps)?;
             (m, ReconstructReport::Adfft(r))
         }
     };
@@ -375,10 +386,20 @@ pub fn mesh_fingerprint(params: &MeshParams) -> Fingerprint {
 /// `scanrig process`, `scanrig reconstruct` and the Python bindings all mesh through this function.
 /// The cloud is borrowed (a caller's arrays are meshed where they lie).
 pub fn mesh<'a>(input: impl Into<rig::CloudRef<'a>>, params: &MeshParams) -> Result<MeshMade, StageError> {
+    mesh_counting(input, params, &AtomicUsize::new(0))
+}
+
+/// [`mesh`], counting in `steps` the reconstruction's steps done (up to
+/// [`ReconstructParams::counted_steps`]), for a progress display ([`crate::pipeline::watch`]).
+pub fn mesh_counting<'a>(
+    input: impl Into<rig::CloudRef<'a>>,
+    params: &MeshParams,
+    steps: &AtomicUsize,
+) -> Result<MeshMade, StageError> {
     params.validate()?;
     let input = input.into();
     let tree = PointTree::new(input.positions);
-    let (mesh, reconstructed) = reconstruct_in(input, &params.reconstruct, Some(&tree))?;
+    let (mesh, reconstructed) = reconstruct_in(input, &params.reconstruct, Some(&tree), steps)?;
     let (mut mesh, mut finish) = finish(mesh, input.positions, &params.finish, params.platter_z, reconstructed.cell())?;
     let mut warnings = Vec::new();
     if let Some(z) = params.top_z {
