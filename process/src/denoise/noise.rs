@@ -1,6 +1,6 @@
 //! The noise level and sampling of one range grid, measured before filtering, so the filter's sizes
 //! can follow the data (the thesis sets them by hand per dataset, table 4.1; scanrig's defaults come
-//! from these two figures, see [`super::DenoiseParams::for_grid`]).
+//! from these two figures, see [`super::DenoiseParams::sized_for`]).
 //!
 //! Sampling `h`: the median distance between grid neighbours, less the noise's share. Noise `σ`: each
 //! cell's height over the mean of its four neighbours, along the normal of the cross two cells out,
