@@ -644,8 +644,21 @@ fn sweep(
     let coarse_iso =
         cloud.positions.par_iter().map(|p| sample(&coarse, coarse_n, origin, coarse_cube.cell(), p)).sum::<Real>()
             / cloud.len() as Real;
-    let coarse_at = |p: &Point3| (sample(&coarse, coarse_n, origin, coarse_cube.cell(), p) - coarse_iso) as f32;
     let eps = params.coarse_weight as f32;
+    // The coarse χ at every point of the sweep's grid, separably: trilinear interpolation is linear
+    // along each axis in turn, so a plane interpolates the coarse grid once in z, a row once in y,
+    // and each point once in x (eight lookups per point had been a sixth of the run). `taps[i]`: the
+    // two coarse planes about fine index i (the coarse grid wraps, as `sample` reads it) and the
+    // weight of the second.
+    let ratio = h / coarse_cube.cell();
+    let taps: Vec<(usize, usize, Real)> = (0..n)
+        .map(|i| {
+            let u = i as Real * ratio;
+            let b = u.floor();
+            let wrap = |v: Real| (v as isize).rem_euclid(coarse_n as isize) as usize;
+            (wrap(b), wrap(b + 1.0), u - b)
+        })
+        .collect();
 
     // The sweep: leaves ordered by where their support starts in z.
     let mut order: Vec<usize> = (0..leaves.len()).collect();
@@ -661,14 +674,26 @@ fn sweep(
         active.extend(solved);
         active.retain(|s| s.lo[2] + s.dims[2] > k);
         peak_active = peak_active.max(active.len());
+        // The coarse χ interpolated to this plane (coarse_n² values, x fastest).
+        let (z0, z1, fz) = taps[k];
+        let slice: Vec<Real> = (0..coarse_n * coarse_n)
+            .map(|xy| {
+                let at = |z: usize| coarse[xy + coarse_n * coarse_n * z] as Real;
+                (1.0 - fz) * at(z0) + fz * at(z1)
+            })
+            .collect();
         // Eq. 5.19 row by row: Σ w_i f_i / Σ w_i over the leaves whose support holds the point.
         let mut plane = vec![f32::NAN; n * n];
         plane.par_chunks_mut(n).enumerate().for_each(|(j, row)| {
             if j == 0 || j == n - 1 || k == 0 || k == n - 1 {
                 return; // the border stays outside, closing the surface
             }
-            let mut num: Vec<f32> = (0..n)
-                .map(|i| eps * coarse_at(&(origin + Vector3::new(i as Real, j as Real, k as Real) * h)))
+            let (y0, y1, fy) = taps[j];
+            let line: Vec<Real> =
+                (0..coarse_n).map(|x| (1.0 - fy) * slice[x + coarse_n * y0] + fy * slice[x + coarse_n * y1]).collect();
+            let mut num: Vec<f32> = taps
+                .iter()
+                .map(|&(x0, x1, fx)| eps * ((1.0 - fx) * line[x0] + fx * line[x1] - coarse_iso) as f32)
                 .collect();
             let mut den = vec![eps; n];
             for s in &active {

@@ -326,6 +326,10 @@ pub fn indicator(
     let h = fft.half();
     let two_pi_over_size = std::f64::consts::TAU / size;
     let sigma = smoothing_cells * cell;
+    // The low-pass G(ω) = exp(−σ²|ω|²/2) is the product of one factor per axis: a table of n
+    // factors replaces an exp per frequency and axis (a fifth of a leaf's solve in AdFFT).
+    let signed = |k: usize| if k <= n / 2 { k as Real } else { k as Real - n as Real };
+    let low_pass: Vec<Real> = (0..n).map(|k| (-0.5 * (signed(k) * two_pi_over_size * sigma).powi(2)).exp()).collect();
     let slabs = ZSlabs::new(&corners, n);
     let mut splat_seconds = t.elapsed().as_secs_f64();
     let mut fft_seconds = 0.0;
@@ -337,10 +341,10 @@ pub fn indicator(
         fft.forward(&mut real, &mut spectrum);
         // χ̂ += i·ω_axis·V̂_axis / |ω|² · G(ω), over z-slabs in parallel.
         chi_hat.par_chunks_mut(h * n).zip(spectrum.par_chunks(h * n)).enumerate().for_each(|(kz, (acc, src))| {
-            let signed = |k: usize| if k <= n / 2 { k as Real } else { k as Real - n as Real };
             let wz = signed(kz) * two_pi_over_size;
             for ky in 0..n {
                 let wy = signed(ky) * two_pi_over_size;
+                let g_yz = low_pass[ky] * low_pass[kz];
                 for kx in 0..h {
                     // The Nyquist planes have no signed frequency; their content is below the filter.
                     if kx == n / 2 || ky == n / 2 || kz == n / 2 {
@@ -352,7 +356,7 @@ pub fn indicator(
                         continue;
                     }
                     let w_axis = [wx, wy, wz][axis];
-                    let gain = (w_axis / w2 * (-0.5 * w2 * sigma * sigma).exp()) as f32;
+                    let gain = (w_axis / w2 * low_pass[kx] * g_yz) as f32;
                     let v = src[kx + h * ky];
                     // i·gain·v
                     acc[kx + h * ky] += Complex32::new(-v.im * gain, v.re * gain);

@@ -321,8 +321,9 @@ pub fn mesh_colours(mesh: &TriMesh, cloud: rig::CloudRef<'_>, tree: &PointTree) 
 /// The close stage's code version.
 pub const CLOSE: StageCode = StageCode { stage: "close", version: 1 };
 /// The mesh stage's code version (reconstruction, finish, support check, colours; 2: `--trim-fill`
-/// closes holes by whether the mesh had them before trimming, not by where they lie).
-pub const MESH: StageCode = StageCode { stage: "mesh", version: 2 };
+/// closes holes by whether the mesh had them before trimming, not by where they lie; 3: the low-pass
+/// and AdFFT's coarse χ computed separably, which moves vertices by rounding).
+pub const MESH: StageCode = StageCode { stage: "mesh", version: 3 };
 
 /// What the closed cloud is made from besides the fused cloud: the closing parameters.
 pub fn close_fingerprint(params: &CloseParams) -> Fingerprint {
