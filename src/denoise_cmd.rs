@@ -38,10 +38,12 @@ pub fn run(args: &DenoiseArgs) -> Result<()> {
     }
     let inputs: Vec<(&str, &std::path::Path)> = args.inputs.iter().map(|p| ("INPUT", p.as_path())).collect();
     let outs: Vec<(&str, Option<&std::path::Path>)> = outputs.iter().map(|p| ("--out", Some(p.as_path()))).collect();
-    crate::outputs::plan(&inputs, &outs)?;
-    if !single {
-        std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    // Several grids go into the folder --out, made here if it is new (before the plan, which wants
+    // every output's folder to exist).
+    if !single && !args.out.is_dir() {
+        std::fs::create_dir_all(&args.out).with_context(|| format!("--out {}: creating it", args.out.display()))?;
     }
+    crate::outputs::plan(&inputs, &outs)?;
     let mut reports = Vec::new();
     for (k, input) in args.inputs.iter().enumerate() {
         let (clean, report) = stages::denoise(&grids, k, args.temporal, &params)

@@ -27,12 +27,21 @@ pub fn distinct(outputs: &[(&str, Option<&Path>)]) -> Result<()> {
     Ok(())
 }
 
-/// [`distinct`], and no output is one of the run's `inputs` (files, or folders whose contents the
-/// run reads) nor inside an input folder — checked before any work starts. The same rules hold again
+/// [`distinct`], every output's folder exists, and no output is one of the run's `inputs` (files,
+/// or folders whose contents the run reads) nor inside an input folder — checked before any work
+/// starts. The same rules hold again
 /// at every write ([`rig::run_files`]); this says so before minutes of work are spent.
 pub fn plan(inputs: &[(&str, &Path)], outputs: &[(&str, Option<&Path>)]) -> Result<()> {
     distinct(outputs)?;
     for (name, out) in outputs.iter().filter_map(|(n, p)| p.map(|p| (*n, p))) {
+        // A missing folder had failed only at the write, after the work, naming a temporary file.
+        if let Some(folder) = out.parent().filter(|d| !d.as_os_str().is_empty() && !d.is_dir()) {
+            bail!(
+                "{name} {}: the folder {} does not exist; create it first, or give a path in an existing folder",
+                out.display(),
+                folder.display()
+            );
+        }
         for (what, input) in inputs {
             if same_file(out, input) {
                 bail!(

@@ -73,6 +73,15 @@ fn fuse_and_remesh_refuse_to_write_over_their_input_by_any_name() {
         assert!(!o.status.success(), "{}", out.display());
     }
     assert_eq!(std::fs::read(&cloud).unwrap(), bytes, "the input changed");
+    // An output in a folder that does not exist: refused before the work (it had failed at the write,
+    // after minutes, naming a temporary file), saying which option and which folder; nothing created.
+    for command in ["fuse", "reconstruct"] {
+        let o = scanrig(&[&command, &cloud, &"-o", &p("missing/out.ply")]);
+        let said = stderr(&o);
+        assert!(!o.status.success() && said.contains("--out") && said.contains("does not exist"), "{command}: {said}");
+        assert!(!said.contains("scanrig-tmp"), "{command}: {said}");
+        assert!(!p("missing").exists(), "{command} created the folder");
+    }
 }
 
 #[test]
