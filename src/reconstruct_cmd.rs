@@ -59,12 +59,7 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
     let made = process::pipeline::watch::watched(
         mp.reconstruct.counted_steps(),
         |steps| stages::mesh_counting(&cloud, &mp, steps),
-        // The global method counts no steps: no line for it.
-        |done, total| {
-            if total > 1 {
-                progress.update("reconstructing", done, total)
-            }
-        },
+        |done, total| progress.update("reconstructing", done, total),
     );
     progress.finish();
     let made = made.with_context(context)?;

@@ -334,12 +334,7 @@ pub(super) fn mesh_step(
         let made = super::watch::watched(
             mp.reconstruct.counted_steps(),
             |steps| stages::mesh_counting(&cloud, &mp, steps),
-            // The global method counts no steps: its 1 of 1 is said when the stage ends.
-            |done, total| {
-                if total > 1 {
-                    progress(Stage::Reconstruct, done, total)
-                }
-            },
+            |done, total| progress(Stage::Reconstruct, done, total),
         )
         .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source: laser_hint(source, method, views) })?;
         drop(cloud);

@@ -8,7 +8,8 @@ use std::time::Duration;
 
 /// Runs `work` with a counter it adds to as it goes (up to `total`), calling `tick(done, total)` on
 /// this thread whenever the count moved, about ten times a second, until `work` ends; returns what
-/// `work` returned. A panic in `work` continues here.
+/// `work` returned. A panic in `work` continues here. Work of one step (the global reconstruction,
+/// which counts nothing) has nothing to show before it returns: it runs here, with no ticks.
 pub fn watched<T: Send>(
     total: usize,
     work: impl FnOnce(&AtomicUsize) -> T + Send,
@@ -18,7 +19,7 @@ pub fn watched<T: Send>(
     // On a rayon worker (the Python bindings run their work on one) this thread must not sleep in a
     // polling loop: the work's own parallel loops may need this very worker (a pool of one thread, as
     // a Ray task has, would wait for ever). There the work runs here, with no ticks.
-    if rayon::current_thread_index().is_some() {
+    if rayon::current_thread_index().is_some() || total <= 1 {
         return work(&counter);
     }
     std::thread::scope(|s| {
@@ -59,6 +60,14 @@ mod tests {
         // Several distinct counts, rising, all below the total, each against the total.
         assert!(seen.len() >= 3, "{seen:?}");
         assert!(seen.windows(2).all(|w| w[0].0 < w[1].0) && seen.iter().all(|&(d, t)| d < 5 && t == 5), "{seen:?}");
+    }
+
+    #[test]
+    fn work_of_one_step_shows_no_progress() {
+        let mut seen = Vec::new();
+        let out = watched(1, |_| 7, |d, t| seen.push((d, t)));
+        assert_eq!(out, 7);
+        assert!(seen.is_empty(), "{seen:?}");
     }
 
     #[test]
