@@ -654,7 +654,13 @@ fn plan<'a>(cloud: rig::CloudRef<'a>, params: &AdFftParams) -> Result<Plan<'a>, 
     let area: Real = samples.weights.iter().sum();
     report.estimated_triangles = (TRIANGLES_PER_AREA_CELL * area / (h * h)).ceil() as u64;
     report.estimated_bytes = estimate_bytes(&leaves, &ranges, cloud.len(), n, h, params, report.estimated_triangles);
-    super::global_fft::check_memory(report.estimated_bytes, n, params.memory_budget, "--method adfft")?;
+    super::global_fft::check_memory(
+        report.estimated_bytes,
+        n,
+        params.memory_budget,
+        "--method adfft",
+        "lower --depth",
+    )?;
 
     Ok(Plan { samples, leaves, ranges, origin, size, h, n, report })
 }

@@ -111,15 +111,19 @@ pub enum ReconstructError {
 }
 
 /// Refuses a reconstruction estimated at `need` bytes over `budget` or over what the machine has;
-/// `method` names it for the message.
-pub fn check_memory(need: u64, n: usize, budget: u64, method: &str) -> Result<(), ReconstructError> {
+/// `method` names it for the message, `hint` says what to do instead.
+pub fn check_memory(
+    need: u64,
+    n: usize,
+    budget: u64,
+    method: &str,
+    hint: &'static str,
+) -> Result<(), ReconstructError> {
     if need > budget {
-        // AdFFT is what the global method's message points to; AdFFT's own can only point down.
-        let hint = if method.contains("adfft") { "lower --depth" } else { "lower --depth, or use --method adfft" };
         return Err(ReconstructError::TooLarge { n, need: need as f64 / 1e9, budget: budget as f64 / 1e9, hint });
     }
     let what = format!("reconstruction on a {n}³ grid ({method})");
-    rig::memory::check(Some(need), &what, "lower --depth")?;
+    rig::memory::check(Some(need), &what, hint)?;
     Ok(())
 }
 
@@ -422,7 +426,8 @@ pub fn reconstruct_fft_in<'a>(
     }
     let need = grid_bytes(params.depth);
     let n = 1usize << params.depth;
-    check_memory(need, n, params.memory_budget, "--method fft")?;
+    // AdFFT holds only the leaves near the surface: the way past this grid's size.
+    check_memory(need, n, params.memory_budget, "--method fft", "lower --depth, or use --method adfft")?;
     let (origin, size) = bounding_cube(cloud.positions, params.padding);
     let cell = size / n as Real;
     let mut report = FftReport { n, cell, grid_bytes: need, ..Default::default() };
