@@ -373,6 +373,9 @@ struct ActiveLeaf {
     weight: [Vec<f32>; 3],
 }
 
+/// The largest magnitude a leaf's value is kept at (f16's largest finite value).
+const F16_LIMIT: f32 = 65504.0;
+
 impl From<SolvedLeaf> for ActiveLeaf {
     fn from(s: SolvedLeaf) -> Self {
         let planes = s
@@ -477,7 +480,12 @@ fn solve_leaf(samples: &Samples, cell: &LeafTask, grid: &LeafGrid) -> Solved {
             for x in 0..dims[0] {
                 let (i, j, k) = (local(lo[0] + x, 0), local(lo[1] + y, 1), local(lo[2] + z, 2));
                 let p = origin + Vector3::new((lo[0] + x) as Real, (lo[1] + y) as Real, (lo[2] + z) as Real) * h;
-                values.push(chi[i + local_n * (j + local_n * k)] - level.at(&p) as f32);
+                // Within f16's range, which the sweep holds values in ([`ActiveLeaf`]): a value past
+                // it would turn to ±∞ there, and ∞ times a zero weight at the support's edge to NaN,
+                // which marching cubes reads as outside. χ − iso is a few units at most; the clamp
+                // keeps the sign of anything wilder.
+                let v = chi[i + local_n * (j + local_n * k)] - level.at(&p) as f32;
+                values.push(v.clamp(-F16_LIMIT, F16_LIMIT));
             }
         }
     }
