@@ -45,6 +45,7 @@ impl DecodeOpts {
     }
 }
 
+/// The sizes a setting by hand starts from: the thesis's.
 fn defaults() -> DenoiseParams {
     DenoiseParams::thesis()
 }
@@ -122,7 +123,7 @@ impl DenoiseOpts {
         let d = DenoiseStage::default();
         let by_hand =
             self.window.is_some() || self.patch.is_some() || self.iterations.is_some() || self.bandwidth.is_some();
-        let thesis = DenoiseParams::thesis();
+        let thesis = defaults();
         let p = DenoiseStage {
             filter: DenoiseParams {
                 window: half(self.window.unwrap_or(2 * thesis.window + 1), "window")?,

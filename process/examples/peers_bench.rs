@@ -29,11 +29,6 @@ fn bunny() -> Result<PointCloud, Error> {
         .ok_or_else(|| "the Stanford bunny scans are not under ../shared/data (stanford-bunny/)".into())
 }
 
-/// `count` area-weighted samples of a mesh's surface (seeded, so every mesh is measured alike).
-fn samples(m: &TriMesh, count: usize, seed: u64) -> Vec<rig::Point3> {
-    fixtures::surface_points(m, count, seed)
-}
-
 fn mean(v: &[Real]) -> Real {
     v.iter().sum::<Real>() / v.len().max(1) as Real
 }
@@ -45,13 +40,15 @@ fn score(path: &Path, input: &PointTree, zipper: &TriMesh, to_zipper: &MeshDista
         return Err(format!("{} has no faces", path.display()).into());
     }
     // `nearest` gives the squared distance: 4 mm² is within 2 mm of a scanned point.
-    let accuracy: Vec<Real> = samples(&mesh, 100_000, 5)
+    // Seeded area-weighted samples, so every mesh is measured alike.
+    let accuracy: Vec<Real> = fixtures::surface_points(&mesh, 100_000, 5)
         .iter()
         .filter(|p| input.nearest(p).1 <= 4.0)
         .map(|p| to_zipper.distance(p))
         .collect();
     let to_mesh = MeshDistance::new(&mesh, 1.0);
-    let completeness: Vec<Real> = samples(zipper, 100_000, 6).iter().map(|p| to_mesh.distance(p)).collect();
+    let completeness: Vec<Real> =
+        fixtures::surface_points(zipper, 100_000, 6).iter().map(|p| to_mesh.distance(p)).collect();
     let t = topology(&mesh);
     let (acc, comp) = (mean(&accuracy), mean(&completeness));
     let line = serde_json::json!({
