@@ -116,6 +116,16 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
             seconds,
             peak.map_or("unknown".into(), |b| format!("{:.0} MB", b as f64 / 1e6))
         )?;
+        if let ReconstructReport::Adfft(r) = report
+            && r.depth < r.depth_asked
+        {
+            writeln!(
+                o,
+                "  depth {} asked; built at depth {}, where the surface's cells hold {:.2} samples each: the samples \
+                 carry no finer detail (--samples-per-cell 0 keeps depth {})",
+                r.depth_asked, r.depth, r.samples_per_cell, r.depth_asked
+            )?;
+        }
         match t.genus() {
             Some(g) => writeln!(o, "  closed, oriented 2-manifold: {} component(s), genus {g}", t.components)?,
             None => writeln!(o, "  not a closed manifold: {t:?}")?,

@@ -202,6 +202,11 @@ pub struct ReconstructOpts {
     /// average (cloud units; default half a grid cell).
     #[arg(long)]
     pub error: Option<f64>,
+    /// AdFFT: build the grid no finer than the cells on the surface holding this many samples each on
+    /// average, below --depth where the samples carry no finer detail (as Poisson's octree adapts);
+    /// 0 keeps --depth whatever the samples.
+    #[arg(long, value_name = "N")]
+    pub samples_per_cell: Option<f64>,
     /// Refuse reconstructions estimated to need more memory than this, GB (and any the machine
     /// cannot hold).
     #[arg(long, default_value_t = FftParams::default().memory_budget as f64 / 1e9)]
@@ -261,6 +266,9 @@ impl ReconstructOpts {
                 if self.error.is_some() {
                     bail!("--error steers AdFFT's octree; the global method (--method fft) has none");
                 }
+                if self.samples_per_cell.is_some() {
+                    bail!("--samples-per-cell adapts AdFFT's grid; the global method (--method fft) keeps --depth");
+                }
                 let d = FftParams::default();
                 ReconstructParams::Fft(FftParams {
                     depth: self.depth.unwrap_or(d.depth),
@@ -277,6 +285,7 @@ impl ReconstructOpts {
                 ReconstructParams::Adfft(AdFftParams {
                     depth: self.depth.unwrap_or(d.depth),
                     error: self.error,
+                    samples_per_cell: self.samples_per_cell.unwrap_or(d.samples_per_cell),
                     memory_budget: (self.memory_budget * 1e9) as u64,
                     ..d
                 })

@@ -38,10 +38,14 @@ pub const MAX_FUSE_K: usize = 1000;
 pub const MAX_HEIGHT_MM: Real = 10_000.0;
 /// Grid depths the global FFT method accepts.
 pub const FFT_DEPTHS: std::ops::RangeInclusive<u32> = 2..=10;
-/// Equivalent-grid depths AdFFT accepts.
-/// Equivalent-grid depths AdFFT accepts: its blend visits every point of the 2^(3·depth) equivalent
-/// grid, so depth 10 (10⁹ points) takes minutes and 11 tens of minutes on a 2-core machine.
-pub const ADFFT_DEPTHS: std::ops::RangeInclusive<u32> = 6..=9;
+/// Equivalent-grid depths AdFFT accepts. Past the samples' detail the grid stops at the depth they
+/// carry ([`AdFftParams::samples_per_cell`](crate::reconstruct::adfft::AdFftParams)); forced to the
+/// full depth, the blend visits every point of the 2^(3·depth) grid: depth 10 (10⁹ points) took 88 s
+/// and 1.6 GB on the bunny on 2 cores, 11 would take eight times that, 12 is out of reach.
+pub const ADFFT_DEPTHS: std::ops::RangeInclusive<u32> = 6..=11;
+/// The most samples per surface cell AdFFT's grid may be asked to hold: past it even a dense scan's
+/// grid would drop to the coarsest depth.
+pub const MAX_SAMPLES_PER_CELL: Real = 1000.0;
 /// AdFFT's `--error`, as a fraction of the cloud's bounding-box diagonal: below the smallest every
 /// cell splits to the finest depth, above the largest none does.
 pub const ADFFT_ERROR_RANGE: (Real, Real) = (1e-7, 0.1);
@@ -172,7 +176,7 @@ impl ReconstructParams {
                         p.depth,
                         format!(
                             "AdFFT takes {}–{}: its blend visits all 2^(3·depth) points of the equivalent grid \
-                             (depth 10: 10⁹ points, minutes; 11: tens of minutes)",
+                             where the samples carry that much detail (11: 8.6·10⁹ points, tens of minutes)",
                             ADFFT_DEPTHS.start(),
                             ADFFT_DEPTHS.end()
                         ),
@@ -180,6 +184,13 @@ impl ReconstructParams {
                 }
                 if let Some(e) = p.error {
                     positive("--error", e, "distance")?;
+                }
+                if !(0.0..=MAX_SAMPLES_PER_CELL).contains(&p.samples_per_cell) {
+                    return Err(bad(
+                        "--samples-per-cell",
+                        p.samples_per_cell,
+                        format!("must be a number from 0 (keep --depth) to {MAX_SAMPLES_PER_CELL}"),
+                    ));
                 }
                 budget(p.memory_budget)
             }

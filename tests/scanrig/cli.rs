@@ -528,8 +528,19 @@ fn reconstruct_meshes_an_oriented_cloud_and_refuses_one_without_normals() {
     let o = scanrig(&[&"reconstruct", &input, &"-o", &out, &"--method", &"adfft", &"--depth", &"7"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stdout(&o).contains("patches") && stdout(&o).contains("genus 0"), "{}", stdout(&o));
+    // 5,000 samples 1 mm apart hold 0.08 each per cell of depth 7's 0.34 mm grid: the grid stops at
+    // depth 6 (0.31 samples per cell), and says so (issue 42).
+    assert!(
+        stdout(&o).contains("64³ grid")
+            && stdout(&o).contains("depth 7 asked; built at depth 6")
+            && stdout(&o).contains("--samples-per-cell 0 keeps depth 7"),
+        "{}",
+        stdout(&o)
+    );
     let o = scanrig(&[&"reconstruct", &input, &"-o", &out, &"--error", &"0.1"]);
     assert!(!o.status.success() && stderr(&o).contains("--error steers AdFFT"), "{}", stderr(&o));
+    let o = scanrig(&[&"reconstruct", &input, &"-o", &out, &"--samples-per-cell", &"1"]);
+    assert!(!o.status.success() && stderr(&o).contains("--samples-per-cell adapts AdFFT"), "{}", stderr(&o));
     // Without normals: refused, naming the file and the remedy.
     let bare = d.path("bare.ply");
     rig::ply::write_cloud(&bare, &rig::PointCloud::from_positions(cloud.positions.clone()), &Default::default())

@@ -297,7 +297,7 @@ fn option_cases() -> Vec<Case> {
     for o in ["--depth", "--smoothing-cells", "--memory-budget", "--trim"] {
         each(&mut cases, &format!("reconstruct cloud.ply -o out.ply {o} {{v}}"), o, &["out.ply"]);
     }
-    for o in ["--depth", "--error"] {
+    for o in ["--depth", "--error", "--samples-per-cell"] {
         each(&mut cases, &format!("reconstruct cloud.ply -o out.ply --method adfft {o} {{v}}"), o, &["out.ply"]);
     }
     // Depths that hung or ran out of memory (issue 37): refused or finished within the limit.

@@ -16,7 +16,8 @@ pub fn prune_small_components(mesh: &mut TriMesh, min_fraction: Real) -> usize {
 
 /// Removes every component fewer than half of whose vertices lie within `max_distance` of a sample:
 /// surface the data never asked for (AdFFT's local solids close themselves away from their points).
-/// Returns the number removed.
+/// A component of more than [`PRUNE_SAMPLE`] vertices is judged on that many spread evenly over its
+/// vertex list. Returns the number removed.
 pub fn prune_components_away_from(
     mesh: &mut TriMesh,
     samples: &crate::kd_tree::PointTree,
@@ -25,20 +26,27 @@ pub fn prune_components_away_from(
     use rayon::prelude::*;
     let r2 = max_distance * max_distance;
     prune_components(mesh, |_, _, vertices, positions| {
-        // Kept when at least half its vertices are near: counted in parallel chunks, stopping once the
-        // verdict is sure (a whole mesh's nearest queries had been a sixth of AdFFT's run at 512³).
-        let need = vertices.len().div_ceil(2);
+        // Kept when at least half its vertices are near. The whole mesh's nearest queries had been a
+        // sixth of AdFFT's run at 512³, then a tenth with an early exit (the main component still asked
+        // half its 600,000 vertices): an even sample of 16,384 puts the fraction within ±0.8 % (two
+        // standard errors), so only a component within a hair of half near could be judged otherwise.
+        let stride = vertices.len().div_ceil(PRUNE_SAMPLE).max(1);
+        let picked: Vec<u32> = vertices.iter().step_by(stride).copied().collect();
+        let need = picked.len().div_ceil(2);
         let (mut near, mut checked) = (0, 0);
-        for chunk in vertices.chunks(8192) {
+        for chunk in picked.chunks(4096) {
             near += chunk.par_iter().filter(|&&v| samples.nearest(&positions[v as usize]).1 <= r2).count();
             checked += chunk.len();
-            if near >= need || near + (vertices.len() - checked) < need {
+            if near >= need || near + (picked.len() - checked) < need {
                 break;
             }
         }
         near >= need
     })
 }
+
+/// The most vertices of one component [`prune_components_away_from`] asks the samples about.
+pub const PRUNE_SAMPLE: usize = 16_384;
 
 /// Keeps the components for which `keep(area, largest area, vertex ids, the mesh's vertices)` holds.
 fn prune_components(mesh: &mut TriMesh, keep_part: impl Fn(Real, Real, &[u32], &[rig::Point3]) -> bool) -> usize {

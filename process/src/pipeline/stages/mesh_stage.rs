@@ -8,6 +8,7 @@ pub use crate::reconstruct::base::{Base, BaseReport};
 use crate::reconstruct::closing::{CloseParams, CloseReport, close_openings};
 use crate::reconstruct::global_fft::{FftParams, FftReport, reconstruct_fft_in};
 pub use crate::reconstruct::trim::TrimReport;
+use rayon::prelude::*;
 use rig::math::{Point3, Real};
 use rig::{PointCloud, PolyMesh, TriMesh};
 use serde::{Deserialize, Serialize};
@@ -245,7 +246,8 @@ pub fn check_support(
     let Some(bounds) = rig::Aabb::of(positions) else { return Ok(None) };
     let diagonal = (bounds.max - bounds.min).norm();
     let step = mesh.vertices.len().div_ceil(20_000).max(1);
-    let mut gaps: Vec<Real> = mesh.vertices.iter().step_by(step).map(|v| tree.nearest(v).1.sqrt()).collect();
+    let sampled: Vec<&Point3> = mesh.vertices.iter().step_by(step).collect();
+    let mut gaps: Vec<Real> = sampled.par_iter().map(|v| tree.nearest(v).1.sqrt()).collect();
     if gaps.is_empty() {
         return Ok(None);
     }
@@ -322,8 +324,9 @@ pub fn mesh_colours(mesh: &TriMesh, cloud: rig::CloudRef<'_>, tree: &PointTree) 
 pub const CLOSE: StageCode = StageCode { stage: "close", version: 1 };
 /// The mesh stage's code version (reconstruction, finish, support check, colours; 2: `--trim-fill`
 /// closes holes by whether the mesh had them before trimming, not by where they lie; 3: the low-pass
-/// and AdFFT's coarse χ computed separably, which moves vertices by rounding).
-pub const MESH: StageCode = StageCode { stage: "mesh", version: 3 };
+/// and AdFFT's coarse χ computed separably, which moves vertices by rounding; 4: AdFFT's level
+/// evaluated along rows, the same rounding kind, and its grid no finer than the samples carry).
+pub const MESH: StageCode = StageCode { stage: "mesh", version: 4 };
 
 /// What the closed cloud is made from besides the fused cloud: the closing parameters.
 pub fn close_fingerprint(params: &CloseParams) -> Fingerprint {
