@@ -23,6 +23,14 @@ impl PointTree {
         (n.item as usize, n.distance)
     }
 
+    /// Whether a point lies within `radius` of `p`. The search stops at `radius`: a nearest-point query
+    /// from far outside the cloud visits much of the tree (most of a second for the 8,000 vertices of a
+    /// phantom component away from the bunny's 362,272 samples).
+    pub fn any_within(&self, p: &Point3, radius: f64) -> bool {
+        let one = NonZero::new(1).expect("1 ≥ 1");
+        !self.tree.nearest_n_within::<SquaredEuclidean>(&[p.x, p.y, p.z], radius * radius, one, false).is_empty()
+    }
+
     /// Indices of the points within `radius` of `p`, in no order.
     pub fn within(&self, p: &Point3, radius: f64) -> Vec<usize> {
         self.tree

@@ -24,7 +24,6 @@ pub fn prune_components_away_from(
     max_distance: Real,
 ) -> usize {
     use rayon::prelude::*;
-    let r2 = max_distance * max_distance;
     prune_components(mesh, |_, _, vertices, positions| {
         // Kept when at least half its vertices are near. The whole mesh's nearest queries had been a
         // sixth of AdFFT's run at 512³, then a tenth with an early exit (the main component still asked
@@ -35,7 +34,7 @@ pub fn prune_components_away_from(
         let need = picked.len().div_ceil(2);
         let (mut near, mut checked) = (0, 0);
         for chunk in picked.chunks(4096) {
-            near += chunk.par_iter().filter(|&&v| samples.nearest(&positions[v as usize]).1 <= r2).count();
+            near += chunk.par_iter().filter(|&&v| samples.any_within(&positions[v as usize], max_distance)).count();
             checked += chunk.len();
             if near >= need || near + (picked.len() - checked) < need {
                 break;
