@@ -58,6 +58,7 @@ def reconstruct(
     base: str = "flat",
     trim: Optional[float] = None,
     force: bool = False,
+    samples_per_cell: Optional[float] = None,
 ) -> tuple[_F64, npt.NDArray[np.int64], dict[str, Any]]:
     """Watertight reconstruction (thesis ch. 5: FFT eqs. 5.16-5.17, AdFFT 5.3), finished as `process` does
     (base cut at `platter_z`, cut at `top_z`, trim, support check): (V, F, report)."""

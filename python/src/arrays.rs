@@ -172,6 +172,32 @@ pub fn faces(obj: &Bound<'_, PyAny>, vertices: usize) -> PyResult<Vec<Vec<u32>>>
     Ok(rows.into_iter().map(|r| r.into_iter().map(|v| v as u32).collect()).collect())
 }
 
+/// An F×3 int64 triangle array, as [`triangles_out`] makes it, checked against the vertex count
+/// (read row by row, with no vector per face: a slab of AdFFT's sweep hands back a million).
+pub fn triangles_in(obj: &Bound<'_, PyAny>, vertices: usize) -> PyResult<Vec<[u32; 3]>> {
+    let a: PyReadonlyArray2<'_, i64> = obj.extract().map_err(|_| {
+        PyTypeError::new_err(format!("triangles: expected an F×3 numpy array of int64, got {}", describe(obj)))
+    })?;
+    if a.shape()[1] != 3 {
+        return Err(PyValueError::new_err(format!("triangles: expected F×3, got F×{}", a.shape()[1])));
+    }
+    a.as_array()
+        .rows()
+        .into_iter()
+        .enumerate()
+        .map(|(f, r)| {
+            let corner = |c: usize| match u32::try_from(r[c]) {
+                Ok(v) if (v as usize) < vertices => Ok(v),
+                _ => Err(PyValueError::new_err(format!(
+                    "triangles: triangle {f} names vertex {}, but there are {vertices} vertices",
+                    r[c]
+                ))),
+            };
+            Ok([corner(0)?, corner(1)?, corner(2)?])
+        })
+        .collect()
+}
+
 /// Points as an N×3 float64 array (the vector handed over, not copied).
 pub fn points_out<'py>(py: Python<'py>, points: Vec<Point3>) -> Bound<'py, PyArray2<f64>> {
     let n = points.len();

@@ -1,24 +1,30 @@
 //! What `scanrig.distributed` (Ray) needs of the library: a processed folder packed and adopted
-//! (a view's outputs carried from its worker to the scan's folder), and AdFFT with its leaves solved
-//! by a Python callable (Ray tasks) and the leaf solve itself for the workers. Private to the
+//! (a view's outputs carried from its worker to the scan's folder), and AdFFT with its sweep done in
+//! slabs by a Python callable (Ray tasks), with the slab's leaf solves and sweep for the workers. Private to the
 //! package (underscored): the public API is `scanrig.distributed`.
 
 use crate::arrays::Xyz;
 use crate::errors;
 use crate::stages::report;
-use ::process::reconstruct::adfft::{AdFftParams, LeafGrid, LeafSolver, LeafTask, SolvedLeaf, reconstruct_adfft_with};
+use ::process::pipeline::stages::ReconstructParams;
+use ::process::reconstruct::adfft::{
+    AdFftParams, CoarseChi, LeafGrid, LeafSolver, LeafTask, SolvedLeaf, reconstruct_adfft_slabs, slab_part, sweep_slab,
+};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyReadonlyArray1, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList, PyTuple};
+use rig::TriMesh;
+use std::ops::Range;
 use std::path::PathBuf;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_pack, m)?)?;
     m.add_function(wrap_pyfunction!(_adopt, m)?)?;
-    m.add_function(wrap_pyfunction!(_adfft_with, m)?)?;
-    m.add_function(wrap_pyfunction!(_adfft_solve, m)?)?;
+    m.add_function(wrap_pyfunction!(_adfft_slabs, m)?)?;
+    m.add_function(wrap_pyfunction!(_adfft_slab_parts, m)?)?;
+    m.add_function(wrap_pyfunction!(_adfft_sweep_slab, m)?)?;
     m.add_function(wrap_pyfunction!(_complete_views, m)?)?;
     Ok(())
 }
@@ -77,11 +83,33 @@ fn tasks_out<'py>(py: Python<'py>, tasks: &[LeafTask]) -> Bound<'py, PyArray2<f6
     Array2::from_shape_vec((tasks.len(), 4), flat).expect("l×4").into_pyarray(py)
 }
 
-fn solved_out<'py>(py: Python<'py>, s: SolvedLeaf) -> PyResult<Bound<'py, PyTuple>> {
+fn coarse_dict<'py>(py: Python<'py>, c: &CoarseChi) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("n", c.n)?;
+    d.set_item("values", PyArray1::from_slice(py, &c.values))?;
+    d.set_item("iso", c.iso)?;
+    d.set_item("weight", c.weight)?;
+    Ok(d)
+}
+
+fn coarse_from(d: &Bound<'_, PyAny>) -> PyResult<CoarseChi> {
+    let get = |k: &str| d.get_item(k).map_err(|_| PyValueError::new_err(format!("coarse: no {k:?}")));
+    let values: PyReadonlyArray1<'_, f32> =
+        get("values")?.extract().map_err(|_| PyTypeError::new_err("coarse[\"values\"]: a float32 array"))?;
+    Ok(CoarseChi {
+        n: get("n")?.extract()?,
+        values: values.as_array().to_vec(),
+        iso: get("iso")?.extract()?,
+        weight: get("weight")?.extract()?,
+    })
+}
+
+fn part_out<'py>(py: Python<'py>, id: usize, s: SolvedLeaf) -> PyResult<Bound<'py, PyTuple>> {
     let [w0, w1, w2] = s.weight;
     PyTuple::new(
         py,
         [
+            id.into_pyobject(py)?.into_any(),
             s.lo.to_vec().into_pyobject(py)?.into_any(),
             s.dims.to_vec().into_pyobject(py)?.into_any(),
             PyArray1::from_vec(py, s.values).into_any(),
@@ -92,53 +120,88 @@ fn solved_out<'py>(py: Python<'py>, s: SolvedLeaf) -> PyResult<Bound<'py, PyTupl
     )
 }
 
-fn solved_in(obj: &Bound<'_, PyAny>, k: usize) -> PyResult<SolvedLeaf> {
-    let bad = || PyTypeError::new_err(format!("solved leaf {k}: expected (lo, dims, values, w0, w1, w2)"));
+fn part_in(obj: &Bound<'_, PyAny>, k: usize) -> PyResult<(usize, SolvedLeaf)> {
+    let bad = || PyTypeError::new_err(format!("part {k}: expected (id, lo, dims, values, w0, w1, w2)"));
     type F32s<'a> = PyReadonlyArray1<'a, f32>;
-    let (lo, dims, values, w0, w1, w2): (Vec<usize>, Vec<usize>, F32s<'_>, F32s<'_>, F32s<'_>, F32s<'_>) =
+    let (id, lo, dims, values, w0, w1, w2): (usize, Vec<usize>, Vec<usize>, F32s<'_>, F32s<'_>, F32s<'_>, F32s<'_>) =
         obj.extract().map_err(|_| bad())?;
     let three = |v: Vec<usize>| -> PyResult<[usize; 3]> { v.try_into().map_err(|_| bad()) };
-    Ok(SolvedLeaf {
+    let leaf = SolvedLeaf {
         lo: three(lo)?,
         dims: three(dims)?,
         values: values.as_array().to_vec(),
         weight: [w0.as_array().to_vec(), w1.as_array().to_vec(), w2.as_array().to_vec()],
-    })
+    };
+    Ok((id, leaf))
 }
+
+fn layers_from(layers: Vec<(usize, usize)>) -> Vec<Range<usize>> {
+    layers.into_iter().map(|(a, b)| a..b).collect()
+}
+
+/// Vertices and triangles.
+type Triangles<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>);
 
 /// Vertices, triangles and the report.
 type Mesh<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>, Bound<'py, PyAny>);
 
-/// AdFFT with its leaves solved by `solve(tasks, grid, weights)`: `tasks` an L×4 array (centre,
-/// edge), `grid` a dict, `weights` the samples' area weights; it returns L solved leaves in order,
-/// as `_adfft_solve` gives them. The octree, coarse χ and blend run here (thesis 5.3, eqs. 5.19–5.20).
+/// AdFFT with its sweep in `slabs` slabs done by `run(tasks, grid, weights, coarse, layers)`:
+/// `tasks` an L×4 array (centre, edge), `grid` and `coarse` dicts, `weights` the samples' area
+/// weights, `layers` each slab's cube layers as (first, end); it returns each slab's (vertices,
+/// triangles) in order, as `_adfft_sweep_slab` makes them. The octree, the coarse χ, the joining
+/// and the clean-up run here (thesis 5.3); the solved leaves never do.
 #[pyfunction]
-#[pyo3(signature = (points, normals, solve, *, depth=None, error=None))]
-fn _adfft_with<'py>(
+#[pyo3(signature = (points, normals, run, *, slabs=2, depth=None, error=None, samples_per_cell=None))]
+#[allow(clippy::too_many_arguments)]
+fn _adfft_slabs<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
     normals: &Bound<'py, PyAny>,
-    solve: &Bound<'py, PyAny>,
+    run: &Bound<'py, PyAny>,
+    slabs: usize,
     depth: Option<u32>,
     error: Option<f64>,
+    samples_per_cell: Option<f64>,
 ) -> PyResult<Mesh<'py>> {
     let xyz = Xyz::extract(points, "points")?;
     let nrm = Xyz::extract(normals, "normals")?;
     if nrm.len() != xyz.len() {
         return Err(PyValueError::new_err(format!("normals: {} rows, but points has {}", nrm.len(), xyz.len())));
     }
+    if !(1..=4096).contains(&slabs) {
+        return Err(PyValueError::new_err(format!("slabs: 1 to 4096, got {slabs}")));
+    }
     let d = AdFftParams::default();
-    let params = AdFftParams { depth: depth.unwrap_or(d.depth), error, ..d };
+    let params = AdFftParams {
+        depth: depth.unwrap_or(d.depth),
+        error,
+        samples_per_cell: samples_per_cell.unwrap_or(d.samples_per_cell),
+        ..d
+    };
+    ReconstructParams::Adfft(params).validate().map_err(|e| PyValueError::new_err(e.to_string()))?;
     let cloud = rig::CloudRef { normals: Some(nrm.vectors()), ..rig::CloudRef::positions(xyz.points()) };
     // The callable's own exception, if it raised one, is what the caller sees.
     let mut raised: Option<PyErr> = None;
-    let solve = solve.clone().unbind();
+    let run = run.clone().unbind();
     let result = py.detach(|| {
-        reconstruct_adfft_with(cloud, &params, |tasks, grid, weights| {
-            Python::attach(|py| -> PyResult<Vec<SolvedLeaf>> {
-                let w = PyArray1::from_slice(py, weights);
-                let back = solve.bind(py).call1((tasks_out(py, tasks), grid_dict(py, grid)?, w))?;
-                back.try_iter()?.enumerate().map(|(k, item)| solved_in(&item?, k)).collect()
+        reconstruct_adfft_slabs(cloud, &params, slabs, |job| {
+            Python::attach(|py| -> PyResult<Vec<TriMesh>> {
+                let w = PyArray1::from_slice(py, job.weights);
+                let layers: Vec<(usize, usize)> = job.layers.iter().map(|l| (l.start, l.end)).collect();
+                let args =
+                    (tasks_out(py, &job.tasks), grid_dict(py, &job.grid)?, w, coarse_dict(py, &job.coarse)?, layers);
+                let back = run.bind(py).call1(args)?;
+                back.try_iter()?
+                    .enumerate()
+                    .map(|(s, item)| {
+                        let item = item?;
+                        let bad = || PyTypeError::new_err(format!("slab {s}: expected (vertices, triangles)"));
+                        let (v, f): (Bound<'_, PyAny>, Bound<'_, PyAny>) = item.extract().map_err(|_| bad())?;
+                        let vertices = Xyz::extract(&v, "vertices")?.points().to_vec();
+                        let faces = crate::arrays::triangles_in(&f, vertices.len())?;
+                        Ok(TriMesh { vertices, faces, normals: None })
+                    })
+                    .collect()
             })
             .map_err(|e| {
                 let text = e.to_string();
@@ -159,38 +222,73 @@ fn _adfft_with<'py>(
     ))
 }
 
-/// Solves AdFFT leaves (a worker's task): `tasks` L×4 (centre, edge), `grid` as `_adfft_with`
-/// hands it, from the samples and their weights. Returns the solved leaves in order.
+/// Solves AdFFT leaves for a sweep in slabs (a worker's task): `tasks` L×4 (centre, edge) with
+/// their ids, from the samples and their weights, each cut to every slab of `layers` it reaches.
+/// Returns one list per slab of parts (id, lo, dims, values, w0, w1, w2).
 #[pyfunction]
-fn _adfft_solve<'py>(
+#[allow(clippy::too_many_arguments)]
+fn _adfft_slab_parts<'py>(
     py: Python<'py>,
     points: &Bound<'py, PyAny>,
     normals: &Bound<'py, PyAny>,
     weights: PyReadonlyArray1<'py, f64>,
     tasks: PyReadonlyArray2<'py, f64>,
+    ids: Vec<usize>,
     grid: &Bound<'py, PyAny>,
+    layers: Vec<(usize, usize)>,
 ) -> PyResult<Bound<'py, PyList>> {
     let xyz = Xyz::extract(points, "points")?;
     let nrm = Xyz::extract(normals, "normals")?;
     if nrm.len() != xyz.len() || weights.len() != xyz.len() {
         return Err(PyValueError::new_err("points, normals and weights need one row per sample"));
     }
-    if tasks.shape()[1] != 4 {
-        return Err(PyValueError::new_err("tasks: expected L×4 (centre x, y, z, edge)"));
+    if tasks.shape()[1] != 4 || tasks.shape()[0] != ids.len() {
+        return Err(PyValueError::new_err("tasks: expected L×4 (centre x, y, z, edge), one row per id"));
     }
     let grid = grid_from(grid)?;
+    let layers = layers_from(layers);
+    grid.check(&layers).map_err(PyValueError::new_err)?;
     let tasks: Vec<LeafTask> =
         tasks.as_array().rows().into_iter().map(|r| LeafTask { centre: [r[0], r[1], r[2]], edge: r[3] }).collect();
     let weights = weights.as_array().to_vec();
     let (p, n) = (xyz.points(), nrm.vectors());
-    let solved: Vec<SolvedLeaf> = py.detach(|| {
+    let parts: Vec<Vec<(usize, SolvedLeaf)>> = py.detach(|| {
         use rayon::prelude::*;
         let solver = LeafSolver::new(p, n, weights);
-        tasks.par_iter().map(|t| solver.solve(t, &grid)).collect()
+        let solved: Vec<SolvedLeaf> = tasks.par_iter().map(|t| solver.solve(t, &grid)).collect();
+        layers
+            .iter()
+            .map(|l| ids.iter().zip(&solved).filter_map(|(&id, s)| slab_part(s, l, grid.n).map(|p| (id, p))).collect())
+            .collect()
     });
-    let list = PyList::empty(py);
-    for s in solved {
-        list.append(solved_out(py, s)?)?;
+    let out = PyList::empty(py);
+    for slab in parts {
+        let list = PyList::empty(py);
+        for (id, part) in slab {
+            list.append(part_out(py, id, part)?)?;
+        }
+        out.append(list)?;
     }
-    Ok(list)
+    Ok(out)
+}
+
+/// One slab of AdFFT's sweep (a worker's task): marching cubes over the blend of `layer`'s cube
+/// layers (first, end), from `parts` (as `_adfft_slab_parts` gives them, from every task) and the
+/// coarse χ. Returns (vertices, triangles).
+#[pyfunction]
+fn _adfft_sweep_slab<'py>(
+    py: Python<'py>,
+    parts: &Bound<'py, PyAny>,
+    coarse: &Bound<'py, PyAny>,
+    grid: &Bound<'py, PyAny>,
+    layer: (usize, usize),
+) -> PyResult<Triangles<'py>> {
+    let parts: Vec<(usize, SolvedLeaf)> =
+        parts.try_iter()?.enumerate().map(|(k, item)| part_in(&item?, k)).collect::<PyResult<_>>()?;
+    let coarse = coarse_from(coarse)?;
+    let grid = grid_from(grid)?;
+    let mesh = py
+        .detach(|| sweep_slab(parts, &coarse, &grid, layer.0..layer.1))
+        .map_err(|e| PyValueError::new_err(format!("sweeping a slab: {e}")))?;
+    Ok((crate::arrays::points_out(py, mesh.vertices), crate::arrays::triangles_out(py, &mesh.faces)))
 }

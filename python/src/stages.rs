@@ -99,7 +99,7 @@ fn fuse<'py>(
 /// supports the mesh (an error unless `force`). What it warns of is a `UserWarning`. Returns
 /// (vertices, triangles, report).
 #[pyfunction]
-#[pyo3(signature = (points, normals, *, method="fft", depth=None, error=None, smoothing_cells=None, memory_budget_gb=None, platter_z=None, top_z=None, base="flat", trim=None, force=false))]
+#[pyo3(signature = (points, normals, *, method="fft", depth=None, error=None, smoothing_cells=None, memory_budget_gb=None, platter_z=None, top_z=None, base="flat", trim=None, force=false, samples_per_cell=None))]
 #[allow(clippy::too_many_arguments)]
 fn reconstruct<'py>(
     py: Python<'py>,
@@ -115,6 +115,7 @@ fn reconstruct<'py>(
     base: &str,
     trim: Option<f64>,
     force: bool,
+    samples_per_cell: Option<f64>,
 ) -> PyResult<Meshed<'py, Bound<'py, PyArray2<i64>>>> {
     let xyz = Xyz::extract(points, "points")?;
     let nrm = Xyz::extract(normals, "normals")?;
@@ -135,6 +136,11 @@ fn reconstruct<'py>(
                     "error steers AdFFT's octree; the global method (method=\"fft\") has none",
                 ));
             }
+            if samples_per_cell.is_some() {
+                return Err(PyValueError::new_err(
+                    "samples_per_cell adapts AdFFT's grid; the global method (method=\"fft\") keeps depth",
+                ));
+            }
             let d = FftParams::default();
             ReconstructParams::Fft(FftParams {
                 depth: depth.unwrap_or(d.depth),
@@ -150,7 +156,13 @@ fn reconstruct<'py>(
                 ));
             }
             let d = AdFftParams::default();
-            ReconstructParams::Adfft(AdFftParams { depth: depth.unwrap_or(d.depth), error, memory_budget: budget, ..d })
+            ReconstructParams::Adfft(AdFftParams {
+                depth: depth.unwrap_or(d.depth),
+                error,
+                memory_budget: budget,
+                samples_per_cell: samples_per_cell.unwrap_or(d.samples_per_cell),
+                ..d
+            })
         }
         other => return Err(PyValueError::new_err(format!("method must be \"fft\" or \"adfft\", got {other:?}"))),
     };

@@ -81,6 +81,11 @@ def test_the_mesh_keywords_are_checked_by_name():
     for name in ("platter_z", "top_z"):
         with pytest.raises(scanrig.ScanrigError, match=name):
             scanrig.reconstruct(pts, pts, depth=5, **{name: float("nan")})
+    for bad in (-1.0, float("nan"), 1e9):
+        with pytest.raises(scanrig.ScanrigError, match="samples-per-cell"):
+            scanrig.reconstruct(pts, pts, method="adfft", depth=6, samples_per_cell=bad)
+    with pytest.raises(ValueError, match="samples_per_cell adapts AdFFT"):
+        scanrig.reconstruct(pts, pts, depth=5, samples_per_cell=1.0)
 
 
 def test_messages_name_the_argument_and_what_was_given():

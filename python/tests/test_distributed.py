@@ -153,14 +153,21 @@ def test_adfft_of_the_bunny_on_two_workers_equals_the_single_process_mesh(cluste
     cloud = scanrig.read_cloud(need(BUNNY / "reconstruction/bun_zipper_res2.ply"))
     fused, _, _ = scanrig.fuse(cloud["points"])
     p, n = fused["points"], fused["normals"]
-    v1, f1, r1 = scanrig.reconstruct(p, n, method="adfft", depth=7)
-    v2, f2, r2 = distributed.reconstruct(p, n, depth=7, address=cluster, leaves_per_task=3)
-    assert r1["leaves_by_depth"] == r2["leaves_by_depth"] and sum(r1["leaves_by_depth"]) > 3
+    # The full 128³ grid, though these samples carry only a coarser one: leaves enough to spread.
+    v1, f1, r1 = scanrig.reconstruct(p, n, method="adfft", depth=7, samples_per_cell=0)
+    assert r1["n"] == 128 and sum(r1["leaves_by_depth"]) > 3
     diagonal = np.linalg.norm(p.max(axis=0) - p.min(axis=0))
-    assert f1.shape == f2.shape and np.array_equal(f1, f2)
-    gap = np.abs(v1 - v2).max() / diagonal
-    print(f"AdFFT 128³ of the bunny: {sum(r1['leaves_by_depth'])} leaves, vertices within {gap:.1e} of the diagonal")
-    assert np.array_equal(v1, v2), f"vertices differ by up to {gap:.1e} of the diagonal"
+    # In two slabs and in three: the solves cut into parts worker to worker, the slabs' meshes joined.
+    for slabs in [2, 3]:
+        v2, f2, r2 = distributed.reconstruct(p, n, depth=7, samples_per_cell=0, address=cluster, leaves_per_task=3, slabs=slabs)
+        spread = r2["distributed"]
+        assert r1["leaves_by_depth"] == r2["leaves_by_depth"] and spread["slabs"] == slabs, spread
+        assert f1.shape == f2.shape and np.array_equal(f1, f2)
+        gap = np.abs(v1 - v2).max() / diagonal
+        print(f"AdFFT 128³ of the bunny in {slabs} slabs: {sum(r1['leaves_by_depth'])} leaves, {spread}")
+        assert np.array_equal(v1, v2), f"vertices differ by up to {gap:.1e} of the diagonal"
+        # Only the slabs' meshes came back: about the mesh's own size, not the leaves'.
+        assert spread["returned_mb"] < 2 * (v1.nbytes + f1.nbytes) / 1e6, spread
 
 
 def test_the_command_line_entry_reconstructs_a_file(cluster, tmp_path):

@@ -11,8 +11,14 @@
 //!    resolution), normalised to a unit jump with its own iso-level at 0.
 //! 4. Marching cubes over the global grid, plane by plane; at each grid point the leaves' χ are
 //!    blended (eqs. 5.19–5.20) with Gaussian weights about the leaf centres, windowed to vanish at the
-//!    edge of each leaf's support, together with a coarse (64³) global χ at a small constant weight. A leaf's χ is solved when the sweep reaches its support and dropped
-//!    once it has passed, so memory follows the leaves along one plane, not the whole volume.
+//!    edge of each leaf's support, together with a coarse (64³) global χ at a small constant weight.
+//!    A leaf's χ is solved when the sweep reaches its support and dropped once it has passed, so
+//!    memory follows the leaves along one plane, not the whole volume.
+//!
+//! The global grid is no finer than the samples carry ([`supported_depth`]), as Poisson's octree
+//! adapts. The sweep can run in slabs of planes on other machines ([`reconstruct_adfft_slabs`]):
+//! each slab solves the leaves that reach it and marches its own layers, and the slabs' meshes join
+//! along their shared planes into the very mesh of the whole sweep.
 //!
 //! Deviations, each for a reason: the octree spans the bounding *cube* (cells stay cubes, so the local
 //! FFT needs no anisotropic scaling, which would also bend the normals); the Gaussian of eq. 5.20 is
@@ -22,7 +28,7 @@
 //! leaves holes where the surface would cross into an empty one, and a shell where inside meets none).
 
 use super::global_fft::{Cube, FftReport, area_weights, bounding_cube, indicator, sample};
-use super::marching_cubes::{GridFrame, marching_cubes, marching_cubes_by_plane};
+use super::marching_cubes::{GridFrame, join_slabs, marching_cubes, marching_cubes_layers};
 use super::mesh_distance::MeshDistance;
 use super::prune::prune_small_components;
 use crate::kd_tree::PointTree;
@@ -32,6 +38,7 @@ use rayon::prelude::*;
 use rig::TriMesh;
 use rig::math::{Point3, Real, Vector3};
 use serde::Serialize;
+use std::ops::Range;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -140,7 +147,7 @@ pub struct AdFftReport {
     pub leaves_by_depth: Vec<usize>,
     /// Cells whose subdivision was tested.
     pub tests: usize,
-    /// Most leaves held in memory at once during the sweep.
+    /// Most leaves held in memory at once during the sweep (0 when swept in slabs elsewhere).
     pub peak_active_leaves: usize,
     /// Output size.
     pub vertices: usize,
@@ -200,6 +207,20 @@ pub struct LeafGrid {
     pub scale: Real,
     /// [`AdFftParams::smoothing_cells`].
     pub smoothing_cells: Real,
+}
+
+impl LeafGrid {
+    /// Whether the grid can be swept (one sent from elsewhere, say): 4 to 4096 points per axis at a
+    /// positive spacing, the layers within it. Says what is wrong.
+    pub fn check(&self, layers: &[Range<usize>]) -> Result<(), String> {
+        if !((4..=1 << 12).contains(&self.n) && self.h > 0.0 && self.h.is_finite()) {
+            return Err(format!("grid of {} points per axis at spacing {}", self.n, self.h));
+        }
+        match layers.iter().find(|l| l.is_empty() || l.end > self.n - 1) {
+            Some(l) => Err(format!("layers {l:?} outside the grid's 0..{}", self.n - 1)),
+            None => Ok(()),
+        }
+    }
 }
 
 /// Solves leaves from the samples (on a worker of a distributed run): the samples' tree is built
@@ -396,6 +417,9 @@ type Solved = SolvedLeaf;
 /// accuracy and completeness 0.053765 mm with f32 values, 0.053761 with f16). Planes freed and f16
 /// took AdFFT's peak there from 510–620 MiB to 350–380 MiB (issue 42: PoissonRecon's is ~372).
 struct ActiveLeaf {
+    /// The leaf's index in the octree's list: the blend sums the leaves in this order wherever a plane
+    /// is computed (the local sweep or a slab of a distributed one), so its value is the same bits.
+    id: usize,
     lo: [usize; 3],
     dims: [usize; 3],
     /// χ − iso on each plane of the support (x fastest), empty once swept.
@@ -406,8 +430,8 @@ struct ActiveLeaf {
 /// The largest magnitude a leaf's value is kept at (f16's largest finite value).
 const F16_LIMIT: f32 = 65504.0;
 
-impl From<SolvedLeaf> for ActiveLeaf {
-    fn from(s: SolvedLeaf) -> Self {
+impl ActiveLeaf {
+    fn new(id: usize, s: SolvedLeaf) -> Self {
         let planes = s
             .values
             .chunks(s.dims[0] * s.dims[1])
@@ -417,7 +441,7 @@ impl From<SolvedLeaf> for ActiveLeaf {
                 half
             })
             .collect();
-        ActiveLeaf { lo: s.lo, dims: s.dims, planes, weight: s.weight }
+        ActiveLeaf { id, lo: s.lo, dims: s.dims, planes, weight: s.weight }
     }
 }
 
@@ -577,45 +601,183 @@ pub fn reconstruct_adfft_counting<'a>(
 ) -> Result<(TriMesh, AdFftReport), super::global_fft::ReconstructError> {
     let cloud = cloud.into();
     let plan = plan(cloud, params)?;
-    let (grid, leaves) = (plan.grid(params), plan.tasks());
-    // Each leaf is solved when the sweep reaches its support, those starting on one plane in parallel.
-    Ok(sweep(plan, cloud, params, planes, |samples, starting| {
-        // Cut into planes as each is solved: one thread's leaf at a time is held whole.
-        starting.par_iter().map(|&l| ActiveLeaf::from(solve_leaf(samples, &leaves[l], &grid))).collect()
-    }))
+    let t = Instant::now();
+    let (grid, leaves, coarse) = (plan.grid(params), plan.tasks(), plan.coarse(params));
+    // The sweep: leaves ordered by where their support starts in z, each solved when the sweep reaches
+    // it, those starting on one plane in parallel (cut into planes as each is solved: one thread's
+    // leaf at a time is held whole).
+    let mut order: Vec<usize> = (0..leaves.len()).collect();
+    order.sort_by_key(|&l| plan.ranges[l].0[2]);
+    let mut next = 0;
+    let step = 1usize << (plan.report.depth_asked - plan.report.depth);
+    let samples = &plan.samples;
+    let (mesh, peak) = extract(&grid, &coarse, 0..grid.n - 1, planes, step, |k| {
+        let starting: Vec<usize> = order[next..].iter().copied().take_while(|&l| plan.ranges[l].0[2] <= k).collect();
+        next += starting.len();
+        starting.par_iter().map(|&l| ActiveLeaf::new(l, solve_leaf(samples, &leaves[l], &grid))).collect()
+    });
+    let Plan { samples, mut report, .. } = plan;
+    report.peak_active_leaves = peak;
+    Ok(clean(mesh, &samples.tree, params, report, t))
 }
 
-/// [`reconstruct_adfft`] with its leaves solved by `solve_all` — on other machines, say: it is given
-/// every leaf, the global grid and the samples' area weights, and returns each leaf solved as
-/// [`LeafSolver::solve`] solves it, in the order given. The octree, the coarse χ and the blend run
-/// here, so the mesh is the one [`reconstruct_adfft`] makes when the solves are the same. All
-/// solved leaves are held at once (the local sweep holds one plane's worth).
-pub fn reconstruct_adfft_with<'a>(
+/// A sweep to be done in slabs of cube layers, on other machines say ([`reconstruct_adfft_slabs`]):
+/// each slab's worker solves the leaves whose support reaches its planes ([`LeafSolver`], cut to
+/// the slab by [`slab_part`]) and sweeps its layers ([`sweep_slab`]).
+#[derive(Debug, Clone)]
+pub struct SlabJob<'a> {
+    /// Every leaf, in the octree's order (a leaf's index is its id in [`sweep_slab`]).
+    pub tasks: Vec<LeafTask>,
+    /// The global grid.
+    pub grid: LeafGrid,
+    /// The samples' area weights, as the leaf solves need them.
+    pub weights: &'a [Real],
+    /// The coarse χ behind the leaves.
+    pub coarse: CoarseChi,
+    /// Each slab's cube layers (layer k: the cubes between planes k and k + 1), in order, covering
+    /// 0..n − 1; balanced by the blend's work (the grid's plane plus the supports crossing it).
+    pub layers: Vec<Range<usize>>,
+}
+
+/// [`reconstruct_adfft`] with its sweep done in `slabs` slabs by `sweep_all`: given the [`SlabJob`],
+/// it returns each slab's mesh, in order, as [`sweep_slab`] makes it. The octree, the coarse χ and
+/// the clean-up run here, and nothing else of the sweep: the solved leaves never come here. The
+/// slabs' meshes joined along their shared planes are the whole sweep's, so the mesh is the one
+/// [`reconstruct_adfft`] makes.
+pub fn reconstruct_adfft_slabs<'a>(
     cloud: impl Into<rig::CloudRef<'a>>,
     params: &AdFftParams,
-    solve_all: impl FnOnce(&[LeafTask], &LeafGrid, &[Real]) -> Result<Vec<SolvedLeaf>, String>,
+    slabs: usize,
+    sweep_all: impl FnOnce(&SlabJob) -> Result<Vec<TriMesh>, String>,
 ) -> Result<(TriMesh, AdFftReport), super::global_fft::ReconstructError> {
     use super::global_fft::ReconstructError;
     let cloud = cloud.into();
     let plan = plan(cloud, params)?;
-    let (grid, tasks) = (plan.grid(params), plan.tasks());
-    let solved = solve_all(&tasks, &grid, &plan.samples.weights).map_err(ReconstructError::Leaves)?;
-    if solved.len() != tasks.len() {
-        return Err(ReconstructError::Leaves(format!("{} leaves solved of {}", solved.len(), tasks.len())));
+    let t = Instant::now();
+    let layers = slab_layers(&plan.ranges, plan.n, slabs.max(1));
+    let job = SlabJob {
+        tasks: plan.tasks(),
+        grid: plan.grid(params),
+        weights: &plan.samples.weights,
+        coarse: plan.coarse(params),
+        layers,
+    };
+    let meshes = sweep_all(&job).map_err(ReconstructError::Leaves)?;
+    if meshes.len() != job.layers.len() {
+        return Err(ReconstructError::Leaves(format!("{} slabs swept of {}", meshes.len(), job.layers.len())));
     }
-    // A solve of another grid or leaf would be blended in the wrong place: each is checked.
-    for (l, (s, task)) in solved.iter().zip(&tasks).enumerate() {
-        let (lo, hi) = support_range(task, grid.scale, &Point3::from(grid.origin), grid.h, grid.n);
-        let dims = [hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1];
-        let sized = s.values.len() == dims.iter().product::<usize>() && (0..3).all(|d| s.weight[d].len() == dims[d]);
-        if s.lo != lo || s.dims != dims || !sized {
-            return Err(ReconstructError::Leaves(format!("leaf {l} came back for another support")));
+    for (s, m) in meshes.iter().enumerate() {
+        let bad = m.faces.iter().flatten().any(|&v| v as usize >= m.vertices.len())
+            || m.vertices.iter().any(|p| !p.coords.iter().all(|c| c.is_finite()));
+        if bad {
+            return Err(ReconstructError::Leaves(format!("slab {s} came back with a broken mesh")));
         }
     }
-    let mut solved: Vec<Option<SolvedLeaf>> = solved.into_iter().map(Some).collect();
-    Ok(sweep(plan, cloud, params, &AtomicUsize::new(0), |_, starting| {
-        starting.iter().map(|&l| ActiveLeaf::from(solved[l].take().expect("the sweep starts each leaf once"))).collect()
-    }))
+    let frame = GridFrame { dims: [plan.n; 3], origin: plan.origin, spacing: plan.h };
+    let boundaries: Vec<usize> = job.layers.iter().map(|l| l.end).collect();
+    let mesh = join_slabs(meshes, &frame, &boundaries[..boundaries.len() - 1]);
+    drop(job);
+    let Plan { samples, report, .. } = plan;
+    Ok(clean(mesh, &samples.tree, params, report, t))
+}
+
+/// Cube layers 0..n − 1 cut into `slabs` runs of about equal blending work: each plane costs its n²
+/// points (the coarse χ and marching cubes) plus the points of every support crossing it.
+fn slab_layers(ranges: &[([usize; 3], [usize; 3])], n: usize, slabs: usize) -> Vec<Range<usize>> {
+    let mut change = vec![0i64; n + 1];
+    for (lo, hi) in ranges {
+        let area = ((hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1)) as i64;
+        change[lo[2]] += area;
+        change[hi[2] + 1] -= area;
+    }
+    let mut cost = Vec::with_capacity(n);
+    let mut running = 0i64;
+    for c in change.iter().take(n) {
+        running += c;
+        cost.push((n * n) as i64 + running);
+    }
+    let total: i64 = cost.iter().sum();
+    let mut layers = Vec::new();
+    let (mut start, mut done) = (0, 0i64);
+    for (k, c) in cost.iter().enumerate().take(n - 1) {
+        done += c;
+        let wanted = total * (layers.len() as i64 + 1) / slabs as i64;
+        // Every slab keeps at least one layer, the last included.
+        if done >= wanted && layers.len() + 1 < slabs && k + 1 < n - 1 {
+            layers.push(start..k + 1);
+            start = k + 1;
+        }
+    }
+    layers.push(start..n - 1);
+    layers
+}
+
+/// The part of a solved leaf a slab of `layers` blends: its planes from one below the first layer
+/// to one above the last (the planes [`marching_cubes_layers`] reads), `None` where it has none.
+pub fn slab_part(solved: &SolvedLeaf, layers: &Range<usize>, n: usize) -> Option<SolvedLeaf> {
+    let first = layers.start.saturating_sub(1).max(solved.lo[2]);
+    let last = (layers.end + 1).min(n - 1).min(solved.lo[2] + solved.dims[2] - 1);
+    if first > last {
+        return None;
+    }
+    let plane = solved.dims[0] * solved.dims[1];
+    let (a, b) = (first - solved.lo[2], last - solved.lo[2] + 1);
+    Some(SolvedLeaf {
+        lo: [solved.lo[0], solved.lo[1], first],
+        dims: [solved.dims[0], solved.dims[1], b - a],
+        values: solved.values[a * plane..b * plane].to_vec(),
+        weight: [solved.weight[0].clone(), solved.weight[1].clone(), solved.weight[2][a..b].to_vec()],
+    })
+}
+
+/// One slab of a distributed sweep: marching cubes over the blend (eqs. 5.19–5.20) of `layers`,
+/// from the parts of every leaf whose support reaches them (`(id, part)`: the leaf's index in
+/// [`SlabJob::tasks`] and [`slab_part`] of its solve) and the coarse χ. A part that does not fit
+/// the grid is refused, naming the leaf.
+pub fn sweep_slab(
+    mut parts: Vec<(usize, SolvedLeaf)>,
+    coarse: &CoarseChi,
+    grid: &LeafGrid,
+    layers: Range<usize>,
+) -> Result<TriMesh, String> {
+    grid.check(std::slice::from_ref(&layers))?;
+    let n = grid.n;
+    if coarse.n == 0 || coarse.values.len() != coarse.n.pow(3) {
+        return Err(format!("coarse χ of {} values for {}³ points", coarse.values.len(), coarse.n));
+    }
+    for (id, p) in &parts {
+        let fits = (0..3).all(|d| p.dims[d] > 0 && p.lo[d] + p.dims[d] <= n && p.weight[d].len() == p.dims[d])
+            && p.values.len() == p.dims.iter().product::<usize>();
+        if !fits {
+            return Err(format!("leaf {id}: its part does not fit the grid"));
+        }
+    }
+    parts.sort_by_key(|(id, p)| (p.lo[2], *id));
+    let mut parts = parts.into_iter().peekable();
+    let (mesh, _) = extract(grid, coarse, layers, &AtomicUsize::new(0), 1, |k| {
+        let mut starting = Vec::new();
+        while let Some((id, part)) = parts.next_if(|(_, p)| p.lo[2] <= k) {
+            starting.push(ActiveLeaf::new(id, part));
+        }
+        starting
+    });
+    Ok(mesh)
+}
+
+/// The coarse global χ behind the leaves (step 4), solved once beside the octree and handed to every
+/// slab: it answers where no leaf reaches — the empty cells deep inside the object and far outside —
+/// and outweighs a leaf in the fringe of its support, where the local solid closes itself with a
+/// surface that belongs to no data.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CoarseChi {
+    /// Points per axis, over the same cube as the global grid.
+    pub n: usize,
+    /// χ at those points, x fastest.
+    pub values: Vec<f32>,
+    /// Its level: the mean of χ over the samples.
+    pub iso: Real,
+    /// Its blending weight ([`AdFftParams::coarse_weight`]).
+    pub weight: Real,
 }
 
 /// The octree and what the sweep needs beside it.
@@ -744,84 +906,72 @@ fn plan<'a>(cloud: rig::CloudRef<'a>, params: &AdFftParams) -> Result<Plan<'a>, 
     Ok(Plan { samples, leaves, ranges, origin, size, h, n, report })
 }
 
-/// The coarse χ and the sweep (steps 3–4): marching cubes plane by plane over the blend of the leaves
-/// `solve` hands over as the sweep reaches them (given the leaves' indices), then the clean-up.
-fn sweep(
-    plan: Plan<'_>,
-    cloud: rig::CloudRef<'_>,
-    params: &AdFftParams,
-    planes: &AtomicUsize,
-    mut solve: impl FnMut(&Samples, &[usize]) -> Vec<ActiveLeaf>,
-) -> (TriMesh, AdFftReport) {
-    let Plan { samples, leaves, ranges, origin, size, h, n, mut report } = plan;
-    let normals = samples.normals;
-    // A coarse global χ answers where no leaf reaches — the empty cells deep inside the object and far
-    // outside — and outweighs a leaf in the fringe of its support, where the local solid closes itself
-    // with a surface that belongs to no data.
-    let t = Instant::now();
-    let coarse_n = 1usize << params.coarse_depth.min(report.depth);
-    let coarse_cube = Cube { origin, size, n: coarse_n };
-    let mut scratch = FftReport::default();
-    let coarse = indicator(cloud.positions, normals, &samples.weights, &coarse_cube, 1.0, &mut scratch);
-    let coarse_iso =
-        cloud.positions.par_iter().map(|p| sample(&coarse, coarse_n, origin, coarse_cube.cell(), p)).sum::<Real>()
-            / cloud.len() as Real;
-    let eps = params.coarse_weight as f32;
-    // The coarse χ at every point of the sweep's grid, separably: trilinear interpolation is linear
-    // along each axis in turn, so a plane interpolates the coarse grid once in z, a row once in y,
-    // and each point once in x (eight lookups per point had been a sixth of the run). `taps[i]`: the
-    // two coarse planes about fine index i (the coarse grid wraps, as `sample` reads it) and the
-    // weight of the second.
-    let ratio = h / coarse_cube.cell();
-    let taps: Vec<(usize, usize, Real)> = (0..n)
-        .map(|i| {
-            let u = i as Real * ratio;
-            let b = u.floor();
-            let wrap = |v: Real| (v as isize).rem_euclid(coarse_n as isize) as usize;
-            (wrap(b), wrap(b + 1.0), u - b)
-        })
-        .collect();
+impl Plan<'_> {
+    fn coarse(&self, params: &AdFftParams) -> CoarseChi {
+        let coarse_n = 1usize << params.coarse_depth.min(self.report.depth);
+        let cube = Cube { origin: self.origin, size: self.size, n: coarse_n };
+        let s = &self.samples;
+        let values = indicator(s.positions, s.normals, &s.weights, &cube, 1.0, &mut FftReport::default());
+        // In order, not by a parallel sum: every slab must blend the very same level.
+        let iso = s.positions.iter().map(|p| sample(&values, coarse_n, self.origin, cube.cell(), p)).sum::<Real>()
+            / s.positions.len() as Real;
+        CoarseChi { n: coarse_n, values, iso, weight: params.coarse_weight }
+    }
+}
 
-    // The sweep: leaves ordered by where their support starts in z.
-    let mut order: Vec<usize> = (0..leaves.len()).collect();
-    order.sort_by_key(|&l| ranges[l].0[2]);
-    let mut next_leaf = 0;
-    let mut active: Vec<ActiveLeaf> = Vec::new();
-    let frame = GridFrame { dims: [n; 3], origin, spacing: h };
-    let mut peak_active = 0;
-    // Progress counts planes of the grid asked for, so it reaches 2^depth asked at a shallower one.
-    let step = 1usize << (report.depth_asked - report.depth);
-    let mut mesh = marching_cubes_by_plane(&frame, 0.0, |k| {
-        let starting: Vec<usize> = order[next_leaf..].iter().copied().take_while(|&l| ranges[l].0[2] <= k).collect();
-        next_leaf += starting.len();
-        let solved = solve(&samples, &starting);
-        active.extend(solved);
-        active.retain(|s| s.lo[2] + s.dims[2] > k);
-        peak_active = peak_active.max(active.len());
-        // The coarse χ interpolated to this plane (coarse_n² values, x fastest).
+/// Eq. 5.19 plane by plane: Σ w_i f_i / Σ w_i over the leaves whose support holds a point, with the
+/// coarse χ at its small constant weight.
+struct Blend<'a> {
+    coarse: &'a CoarseChi,
+    n: usize,
+    /// Trilinear interpolation is linear along each axis in turn, so a plane interpolates the coarse
+    /// grid once in z, a row once in y, and each point once in x (eight lookups per point had been a
+    /// sixth of the run). `taps[i]`: the two coarse planes about fine index i (the coarse grid wraps,
+    /// as `sample` reads it) and the weight of the second.
+    taps: Vec<(usize, usize, Real)>,
+}
+
+impl<'a> Blend<'a> {
+    fn new(coarse: &'a CoarseChi, n: usize) -> Self {
+        // Both grids span the same cube: a fine index i is at coarse index i·coarse_n/n.
+        let ratio = coarse.n as Real / n as Real;
+        let taps = (0..n)
+            .map(|i| {
+                let u = i as Real * ratio;
+                let b = u.floor();
+                let wrap = |v: Real| (v as isize).rem_euclid(coarse.n as isize) as usize;
+                (wrap(b), wrap(b + 1.0), u - b)
+            })
+            .collect();
+        Blend { coarse, n, taps }
+    }
+
+    /// Plane k of the blend over `active` (which must be in id order; the border stays outside).
+    fn plane(&self, k: usize, active: &[ActiveLeaf]) -> Vec<f32> {
+        let (n, cn, taps) = (self.n, self.coarse.n, &self.taps);
+        let (coarse, eps, coarse_iso) = (&self.coarse.values, self.coarse.weight as f32, self.coarse.iso);
+        // The coarse χ interpolated to this plane (cn² values, x fastest).
         let (z0, z1, fz) = taps[k];
-        let slice: Vec<Real> = (0..coarse_n * coarse_n)
+        let slice: Vec<Real> = (0..cn * cn)
             .map(|xy| {
-                let at = |z: usize| coarse[xy + coarse_n * coarse_n * z] as Real;
+                let at = |z: usize| coarse[xy + cn * cn * z] as Real;
                 (1.0 - fz) * at(z0) + fz * at(z1)
             })
             .collect();
-        // Eq. 5.19 row by row: Σ w_i f_i / Σ w_i over the leaves whose support holds the point.
         let mut plane = vec![f32::NAN; n * n];
         plane.par_chunks_mut(n).enumerate().for_each(|(j, row)| {
             if j == 0 || j == n - 1 || k == 0 || k == n - 1 {
                 return; // the border stays outside, closing the surface
             }
             let (y0, y1, fy) = taps[j];
-            let line: Vec<Real> =
-                (0..coarse_n).map(|x| (1.0 - fy) * slice[x + coarse_n * y0] + fy * slice[x + coarse_n * y1]).collect();
+            let line: Vec<Real> = (0..cn).map(|x| (1.0 - fy) * slice[x + cn * y0] + fy * slice[x + cn * y1]).collect();
             let mut num: Vec<f32> = taps
                 .iter()
                 .map(|&(x0, x1, fx)| eps * ((1.0 - fx) * line[x0] + fx * line[x1] - coarse_iso) as f32)
                 .collect();
             let mut den = vec![eps; n];
             let mut values = Vec::new();
-            for s in &active {
+            for s in active {
                 if j < s.lo[1] || j >= s.lo[1] + s.dims[1] || k < s.lo[2] {
                     continue;
                 }
@@ -839,6 +989,33 @@ fn sweep(
                 row[i] = num[i] / den[i];
             }
         });
+        plane
+    }
+}
+
+/// Marching cubes over the blend of the cube layers `layers` (steps 3–4): `start(k)` hands over the
+/// leaves whose values begin at plane k (or before, not yet handed over), which are held until the
+/// sweep has passed them, a plane at a time. Each plane adds `step` to `planes`. Returns the mesh and
+/// the most leaves held at once.
+fn extract(
+    grid: &LeafGrid,
+    coarse: &CoarseChi,
+    layers: Range<usize>,
+    planes: &AtomicUsize,
+    step: usize,
+    mut start: impl FnMut(usize) -> Vec<ActiveLeaf>,
+) -> (TriMesh, usize) {
+    let n = grid.n;
+    let frame = GridFrame { dims: [n; 3], origin: Point3::from(grid.origin), spacing: grid.h };
+    let blend = Blend::new(coarse, n);
+    let mut active: Vec<ActiveLeaf> = Vec::new();
+    let mut peak = 0;
+    let mesh = marching_cubes_layers(&frame, 0.0, layers, |k| {
+        active.extend(start(k));
+        active.retain(|s| s.lo[2] + s.dims[2] > k);
+        active.sort_by_key(|s| s.id);
+        peak = peak.max(active.len());
+        let plane = blend.plane(k, &active);
         // This plane of every leaf is done with.
         for s in &mut active {
             s.planes[k - s.lo[2]] = Vec::new();
@@ -846,9 +1023,20 @@ fn sweep(
         planes.fetch_add(step, Ordering::Relaxed);
         plane
     });
-    report.peak_active_leaves = peak_active;
+    (mesh, peak)
+}
+
+/// The clean-up of the swept mesh: components too small or away from the data dropped, folds where
+/// blended leaves crossed repaired; the report completed (`t`: when the sweep began).
+fn clean(
+    mut mesh: TriMesh,
+    tree: &PointTree,
+    params: &AdFftParams,
+    mut report: AdFftReport,
+    t: Instant,
+) -> (TriMesh, AdFftReport) {
     report.components_pruned = prune_small_components(&mut mesh, params.min_component)
-        + super::prune::prune_components_away_from(&mut mesh, &samples.tree, 4.0 * h);
+        + super::prune::prune_components_away_from(&mut mesh, tree, 4.0 * report.cell);
     report.self_intersections = super::self_intersect::repair(&mut mesh, 8);
     report.seconds_extract = t.elapsed().as_secs_f64();
     report.vertices = mesh.vertices.len();
@@ -896,6 +1084,19 @@ mod tests {
         }
     }
 
+    /// Slabs cover every layer once, in order, none empty, however many are asked for.
+    #[test]
+    fn slab_layers_cover_the_grid() {
+        let ranges = vec![([0, 0, 2], [5, 5, 9]), ([0, 0, 20], [5, 5, 30])];
+        for slabs in [1, 2, 3, 7, 31, 32, 100] {
+            let layers = slab_layers(&ranges, 32, slabs);
+            assert!(layers.len() <= slabs.min(31) && !layers.is_empty(), "{slabs}: {layers:?}");
+            assert_eq!((layers[0].start, layers[layers.len() - 1].end), (0, 31));
+            assert!(layers.iter().all(|l| !l.is_empty()) && layers.windows(2).all(|w| w[0].end == w[1].start));
+        }
+        assert_eq!(slab_layers(&ranges, 32, 2).len(), 2);
+    }
+
     /// The bunny's figures (362,272 samples over 61,658 mm² in a 193.2 mm cube): 0.56 samples per
     /// surface cell at depth 9, 0.14 at 10, so any depth past 9 is built at 9; 0 keeps the depth
     /// asked; a sparse cloud stops no lower than depth 6, and a depth asked below 6 is kept.
@@ -915,36 +1116,47 @@ mod tests {
         assert_eq!(supported_depth(9, 100, 0.0, 193.22, 0.25).0, 9);
     }
 
-    /// Leaves solved elsewhere (here: a `LeafSolver` of their own, as a worker builds one from the
-    /// samples and weights it is sent) blend into the very mesh the local sweep makes; a solve that
-    /// comes back for another support is refused, not blended in the wrong place.
+    /// A sweep in slabs — each slab's leaves solved by a `LeafSolver` of its own, as a worker builds
+    /// one from the samples and weights it is sent, and cut to the slab — joins into the very mesh
+    /// the local sweep makes; a slab's part that does not fit is refused, and so is a slab missing.
     #[test]
-    fn leaves_solved_apart_give_the_same_mesh_and_bad_ones_are_refused() {
+    fn a_sweep_in_slabs_gives_the_same_mesh_and_bad_parts_are_refused() {
         let cloud = crate::reconstruct::global_fft::tests::sphere(20_000, 40.0);
         let params = AdFftParams { depth: 7, ..Default::default() };
-        let (local, _) = reconstruct_adfft(&cloud, &params).unwrap();
+        let (local, local_report) = reconstruct_adfft(&cloud, &params).unwrap();
         let normals = cloud.normals.as_deref().unwrap();
-        let (apart, report) = reconstruct_adfft_with(&cloud, &params, |tasks, grid, weights| {
-            // In two batches, the second first: the order of solving does not matter, only of handing back.
-            let solver = LeafSolver::new(&cloud.positions, normals, weights.to_vec());
-            let half = tasks.len() / 2;
-            let second: Vec<SolvedLeaf> = tasks[half..].iter().map(|t| solver.solve(t, grid)).collect();
-            let mut all: Vec<SolvedLeaf> = tasks[..half].iter().map(|t| solver.solve(t, grid)).collect();
-            all.extend(second);
-            Ok(all)
-        })
-        .unwrap();
-        assert!(report.leaves() > 1);
-        assert_eq!(apart, local, "the mesh differs from the local sweep's");
-        let shifted = reconstruct_adfft_with(&cloud, &params, |tasks, grid, weights| {
-            let solver = LeafSolver::new(&cloud.positions, normals, weights.to_vec());
-            let mut all: Vec<SolvedLeaf> = tasks.iter().map(|t| solver.solve(t, grid)).collect();
-            all[0].lo[0] += 1;
-            Ok(all)
+        for slabs in [1, 2, 3] {
+            let (joined, report) = reconstruct_adfft_slabs(&cloud, &params, slabs, |job| {
+                assert_eq!(job.layers.len(), slabs);
+                assert_eq!((job.layers[0].start, job.layers[slabs - 1].end), (0, job.grid.n - 1));
+                let solver = LeafSolver::new(&cloud.positions, normals, job.weights.to_vec());
+                job.layers
+                    .iter()
+                    .map(|layers| {
+                        let parts = (job.tasks.iter().enumerate())
+                            .filter_map(|(id, t)| {
+                                slab_part(&solver.solve(t, &job.grid), layers, job.grid.n).map(|p| (id, p))
+                            })
+                            .collect();
+                        sweep_slab(parts, &job.coarse, &job.grid, layers.clone())
+                    })
+                    .collect()
+            })
+            .unwrap();
+            assert!(report.leaves() > 1);
+            assert_eq!(report.triangles, local_report.triangles);
+            assert_eq!(joined, local, "{slabs} slabs: the mesh differs from the local sweep's");
+        }
+        let broken = reconstruct_adfft_slabs(&cloud, &params, 2, |job| {
+            let solver = LeafSolver::new(&cloud.positions, normals, job.weights.to_vec());
+            let mut part =
+                slab_part(&solver.solve(&job.tasks[0], &job.grid), &(0..job.grid.n - 1), job.grid.n).unwrap();
+            part.values.pop();
+            sweep_slab(vec![(0, part)], &job.coarse, &job.grid, job.layers[0].clone()).map(|m| vec![m])
         });
-        let err = shifted.unwrap_err().to_string();
-        assert!(err.contains("leaf 0 came back for another support"), "{err}");
-        let short = reconstruct_adfft_with(&cloud, &params, |_, _, _| Ok(Vec::new())).unwrap_err().to_string();
-        assert!(short.contains("0 leaves solved of"), "{short}");
+        let err = broken.unwrap_err().to_string();
+        assert!(err.contains("leaf 0: its part does not fit the grid"), "{err}");
+        let short = reconstruct_adfft_slabs(&cloud, &params, 2, |_| Ok(Vec::new())).unwrap_err().to_string();
+        assert!(short.contains("0 slabs swept of 2"), "{short}");
     }
 }

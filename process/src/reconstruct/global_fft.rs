@@ -101,9 +101,9 @@ pub enum ReconstructError {
     /// A parameter is out of range.
     #[error("{0}")]
     Params(String),
-    /// AdFFT's leaves, solved elsewhere ([`super::adfft::reconstruct_adfft_with`]), did not come back
-    /// whole.
-    #[error("solving AdFFT's leaves: {0}")]
+    /// AdFFT's sweep in slabs, done elsewhere ([`super::adfft::reconstruct_adfft_slabs`]), did not
+    /// come back whole.
+    #[error("sweeping AdFFT's slabs: {0}")]
     Leaves(String),
     /// The reconstruction needs more memory than the machine has.
     #[error(transparent)]
