@@ -179,6 +179,8 @@ def main():
                     scored = subprocess.run([a.scorer, "score", out], check=True, capture_output=True, text=True)
                     row["score"] = json.loads(scored.stdout.strip().splitlines()[-1])
                     err = row["score"].get("error")
+                    if err is None and row["score"].get("chamfer_mm") is None:
+                        err = "scored no chamfer (a distance came out NaN)"
                 if err:
                     row["error"] = err
                 rows.append(row)

@@ -7,6 +7,31 @@ use rustc_hash::FxHashMap;
 
 /// The closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
 pub fn closest_on_triangle(p: &Point3, a: &Point3, b: &Point3, c: &Point3) -> Point3 {
+    let q = closest_on_proper_triangle(p, a, b, c);
+    if q.coords.iter().all(|v| v.is_finite()) {
+        return q;
+    }
+    // A degenerate triangle (two corners equal, or all three on a line: a meshing tool's sliver)
+    // divides by zero above; its closest point is on one of its edges.
+    [(a, b), (b, c), (c, a)]
+        .into_iter()
+        .map(|(u, v)| closest_on_segment(p, u, v))
+        .min_by(|x, y| (x - p).norm_squared().total_cmp(&(y - p).norm_squared()))
+        .unwrap_or(*a)
+}
+
+/// The point of segment uv closest to `p` (u itself when the segment has no length).
+fn closest_on_segment(p: &Point3, u: &Point3, v: &Point3) -> Point3 {
+    let uv = v - u;
+    let length2 = uv.norm_squared();
+    if length2 <= 0.0 {
+        return *u;
+    }
+    u + uv * ((p - u).dot(&uv) / length2).clamp(0.0, 1.0)
+}
+
+/// Ericson's region test (Real-Time Collision Detection, 5.1.5), for a triangle with area.
+fn closest_on_proper_triangle(p: &Point3, a: &Point3, b: &Point3, c: &Point3) -> Point3 {
     let (ab, ac, ap) = (b - a, c - a, p - a);
     let (d1, d2) = (ab.dot(&ap), ac.dot(&ap));
     if d1 <= 0.0 && d2 <= 0.0 {
@@ -171,6 +196,21 @@ fn key(p: &Point3, cell: Real) -> [i64; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Degenerate triangles (corners repeated, corners on a line) give the distance to their edges,
+    /// not NaN: one in PoissonRecon's depth-10 bunny had made a whole completeness mean NaN.
+    #[test]
+    fn degenerate_triangles_measure_to_their_edges() {
+        let p = Point3::new(0.5, 2.0, 0.0);
+        let (a, b, c) = (Point3::new(0.0, 0.0, 0.0), Point3::new(1.0, 0.0, 0.0), Point3::new(2.0, 0.0, 0.0));
+        for (u, v, w) in [(a, a, b), (a, b, c), (b, a, a), (a, a, a), (c, a, b)] {
+            let q = closest_on_triangle(&p, &u, &v, &w);
+            let expected = if (u, v, w) == (a, a, a) { a } else { Point3::new(0.5, 0.0, 0.0) };
+            assert!((q - expected).norm() < 1e-12, "{u} {v} {w}: {q}");
+        }
+        let mesh = TriMesh { vertices: vec![a, b, c], faces: vec![[0, 1, 2], [0, 0, 1]], normals: None };
+        assert!((MeshDistance::new(&mesh, 1.0).distance(&p) - 2.0).abs() < 1e-12);
+    }
 
     #[test]
     fn distances_to_a_square_match_the_geometry() {
