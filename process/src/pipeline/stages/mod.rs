@@ -77,13 +77,12 @@ pub enum StageError {
     #[error(transparent)]
     Base(#[from] crate::reconstruct::base::BaseError),
     /// The reconstruction found no surface.
-    #[error(
-        "the reconstruction found no surface in {points} points: the normals may point inward, or the cloud \
-         is spread over a far larger box than the object (a stray point far away)"
-    )]
+    #[error("the reconstruction found no surface in {points} points: {why}")]
     NoSurface {
         /// Points in the cloud.
         points: usize,
+        /// The likely causes, naming the option to change where one is to blame.
+        why: String,
     },
     /// A streamline spacing so small the quad mesh could not be built in reasonable time.
     #[error(
