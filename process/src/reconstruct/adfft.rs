@@ -230,8 +230,8 @@ pub struct LeafSolver<'a> {
 }
 
 impl<'a> LeafSolver<'a> {
-    /// A solver over the oriented samples and their area weights (as [`reconstruct_adfft_with`]
-    /// hands them to its solver).
+    /// A solver over the oriented samples and their area weights (as [`reconstruct_adfft_slabs`]
+    /// hands them out in its [`SlabJob`]).
     pub fn new(positions: &'a [Point3], normals: &'a [Vector3], weights: Vec<Real>) -> Self {
         LeafSolver { samples: Samples { positions, normals, weights, tree: PointTree::new(positions) } }
     }
