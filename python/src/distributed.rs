@@ -255,11 +255,22 @@ fn _adfft_slab_parts<'py>(
     let parts: Vec<Vec<(usize, SolvedLeaf)>> = py.detach(|| {
         use rayon::prelude::*;
         let solver = LeafSolver::new(p, n, weights);
-        let solved: Vec<SolvedLeaf> = tasks.par_iter().map(|t| solver.solve(t, &grid)).collect();
-        layers
-            .iter()
-            .map(|l| ids.iter().zip(&solved).filter_map(|(&id, s)| slab_part(s, l, grid.n).map(|p| (id, p))).collect())
-            .collect()
+        // Each leaf cut into its parts as soon as it is solved, and the whole solve dropped: the task
+        // holds its batch's values once, not solved and cut side by side.
+        let cut: Vec<Vec<Option<SolvedLeaf>>> = tasks
+            .par_iter()
+            .map(|t| {
+                let solved = solver.solve(t, &grid);
+                layers.iter().map(|l| slab_part(&solved, l, grid.n)).collect()
+            })
+            .collect();
+        let mut parts: Vec<Vec<(usize, SolvedLeaf)>> = vec![Vec::new(); layers.len()];
+        for (&id, leaf) in ids.iter().zip(cut) {
+            for (slab, part) in parts.iter_mut().zip(leaf) {
+                slab.extend(part.map(|p| (id, p)));
+            }
+        }
+        parts
     });
     let out = PyList::empty(py);
     for slab in parts {

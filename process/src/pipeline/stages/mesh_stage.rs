@@ -125,14 +125,15 @@ pub fn reconstruct_in<'a>(
         let mut why = "the normals may point inward, or the cloud is spread over a far larger box than the \
                        object (a stray point far away)"
             .to_string();
-        // A grid kept finer than the samples (--samples-per-cell below its default) leaves most cells
-        // without a sample, and the blend without a surface: said first, naming the options.
+        // A grid finer than the samples (kept by --samples-per-cell, or at the shallowest depth AdFFT
+        // builds) leaves most cells without a sample, and the blend without a surface: said first,
+        // naming the options.
         if let ReconstructReport::Adfft(r) = &report
             && r.samples_per_cell < AdFftParams::default().samples_per_cell
         {
             why = format!(
-                "the {}³ grid kept by --samples-per-cell has {:.2e} samples per surface cell, too few to show one \
-                 (leave --samples-per-cell at its default or lower --depth); or {why}",
+                "the {}³ grid has {:.2e} samples per surface cell, too few to show one (leave --samples-per-cell \
+                 at its default, or lower --depth); or {why}",
                 r.n, r.samples_per_cell
             );
         }
