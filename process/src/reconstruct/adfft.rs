@@ -27,7 +27,9 @@
 //! coarse global χ gives the empty cells a side (the thesis polygonises only inside solved cells, which
 //! leaves holes where the surface would cross into an empty one, and a shell where inside meets none).
 
-use super::global_fft::{Cube, FftReport, area_weights, bounding_cube, indicator, sample};
+use super::global_fft::{
+    Cube, FftReport, IndicatorWork, area_weights_in, bounding_cube, indicator, sample, solve_indicator,
+};
 use super::marching_cubes::{GridFrame, join_slabs, marching_cubes, marching_cubes_layers};
 use super::mesh_distance::MeshDistance;
 use super::prune::prune_small_components;
@@ -39,6 +41,7 @@ use rig::TriMesh;
 use rig::math::{Point3, Real, Vector3};
 use serde::Serialize;
 use std::ops::Range;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -233,12 +236,14 @@ impl<'a> LeafSolver<'a> {
     /// A solver over the oriented samples and their area weights (as [`reconstruct_adfft_slabs`]
     /// hands them out in its [`SlabJob`]).
     pub fn new(positions: &'a [Point3], normals: &'a [Vector3], weights: Vec<Real>) -> Self {
-        LeafSolver { samples: Samples { positions, normals, weights, tree: PointTree::new(positions) } }
+        LeafSolver { samples: Samples::new(positions, normals, weights) }
     }
 
-    /// One leaf's χ − iso on the global grid points of its support, with its blending weights.
+    /// One leaf's χ − iso on the global grid points of its support, with its blending weights. The
+    /// solve runs on the calling thread: solve a batch side by side (its bits do not depend on
+    /// where it runs).
     pub fn solve(&self, leaf: &LeafTask, grid: &LeafGrid) -> SolvedLeaf {
-        solve_leaf(&self.samples, leaf, grid)
+        solve_leaf(&self.samples, leaf, grid, false)
     }
 }
 
@@ -248,9 +253,49 @@ struct Samples<'a> {
     normals: &'a [Vector3],
     weights: Vec<Real>,
     tree: PointTree,
+    /// Local solves' buffers, handed from one leaf to the next ([`Samples::solve_in_work`]): at most
+    /// one per thread, so no more than the solves running at once hold.
+    works: Mutex<Vec<IndicatorWork>>,
 }
 
-impl Samples<'_> {
+impl<'a> Samples<'a> {
+    fn new(positions: &'a [Point3], normals: &'a [Vector3], weights: Vec<Real>) -> Self {
+        Self::with_tree(positions, normals, weights, PointTree::new(positions))
+    }
+
+    fn with_tree(positions: &'a [Point3], normals: &'a [Vector3], weights: Vec<Real>, tree: PointTree) -> Self {
+        Samples { positions, normals, weights, tree, works: Mutex::new(Vec::new()) }
+    }
+
+    /// Runs `solve` with buffers for an `n`³ local grid: kept ones of that size, or new ones (a kept
+    /// one of another size is dropped first, so sizes changing from leaf to leaf do not pile up).
+    /// `parallel`: whether the solve spreads over the threads ([`IndicatorWork::set_parallel`]).
+    fn solve_in_work<T>(&self, n: usize, parallel: bool, solve: impl FnOnce(&mut IndicatorWork) -> T) -> T {
+        let kept = {
+            let mut works = self.works.lock().unwrap_or_else(|e| e.into_inner());
+            match works.iter().position(|w| w.n() == n) {
+                Some(i) => Some(works.swap_remove(i)),
+                None => {
+                    works.pop();
+                    None
+                }
+            }
+        };
+        let mut work = kept.unwrap_or_else(|| IndicatorWork::new(n));
+        work.set_parallel(parallel);
+        let out = solve(&mut work);
+        let mut works = self.works.lock().unwrap_or_else(|e| e.into_inner());
+        if works.len() < rayon::current_num_threads() {
+            works.push(work);
+        }
+        out
+    }
+
+    /// Frees the kept buffers (before the mesh's clean-up, whose peak they would add to).
+    fn release_works(&self) {
+        self.works.lock().unwrap_or_else(|e| e.into_inner()).clear();
+    }
+
     /// Indices of the points within the cube of half-edge `half` about `centre`.
     fn in_cube(&self, centre: &Point3, half: Real) -> Vec<u32> {
         self.tree
@@ -261,9 +306,17 @@ impl Samples<'_> {
             .collect()
     }
 
-    /// The local χ of a cell on a cube of twice its edge at `n` points per axis, from the points in the
-    /// cell scaled by `scale`; returned with the cube and the local iso-level (the mean of χ there).
-    fn local_chi(&self, cell: &LeafTask, scale: Real, n: usize, smoothing_cells: Real) -> (Vec<f32>, Cube, Level) {
+    /// The local χ of a cell on a cube of twice its edge at `work`'s points per axis, from the points in
+    /// the cell scaled by `scale`, left in `work` ([`IndicatorWork::chi`]); returned: the cube and
+    /// the local iso-level (the mean of χ there).
+    fn local_chi(
+        &self,
+        cell: &LeafTask,
+        scale: Real,
+        work: &mut IndicatorWork,
+        smoothing_cells: Real,
+    ) -> (Cube, Level) {
+        let n = work.n();
         let (centre, edge) = (Point3::from(cell.centre), cell.edge);
         let ids = self.in_cube(&centre, scale * edge / 2.0);
         let positions: Vec<Point3> = ids.iter().map(|&i| self.positions[i as usize]).collect();
@@ -271,9 +324,10 @@ impl Samples<'_> {
         let weights: Vec<Real> = ids.iter().map(|&i| self.weights[i as usize]).collect();
         let cube = Cube { origin: centre - Vector3::repeat(edge), size: 2.0 * edge, n };
         let mut scratch = FftReport::default();
-        let chi = indicator(&positions, &normals, &weights, &cube, smoothing_cells, &mut scratch);
-        let values: Vec<Real> = positions.iter().map(|p| sample(&chi, n, cube.origin, cube.cell(), p)).collect();
-        (chi, cube, Level::fit(&positions, &values, centre))
+        solve_indicator(&positions, &normals, &weights, &cube, smoothing_cells, &mut scratch, work);
+        let chi = work.chi();
+        let values: Vec<Real> = positions.iter().map(|p| sample(chi, n, cube.origin, cube.cell(), p)).collect();
+        (cube, Level::fit(&positions, &values, centre))
     }
 }
 
@@ -349,7 +403,9 @@ impl Level {
 /// Hausdorff test over a tenth of them).
 fn needs_split(samples: &Samples, cell: &Cell, params: &AdFftParams, error: Real) -> bool {
     let n = 1usize << params.test_depth;
-    let (chi, cube, level) = samples.local_chi(&cell.task(), params.scale, n, params.smoothing_cells);
+    let mut work = IndicatorWork::new(n);
+    let (cube, level) = samples.local_chi(&cell.task(), params.scale, &mut work, params.smoothing_cells);
+    let chi = work.chi();
     let frame = GridFrame { dims: [n; 3], origin: cube.origin, spacing: cube.cell() };
     let mesh = marching_cubes(&frame, 0.0, |i, j, k| {
         if [i, j, k].iter().any(|&c| c == 0 || c == n - 1) {
@@ -491,8 +547,8 @@ fn estimate_bytes(
     let local = leaves
         .iter()
         .map(|c| {
-            let local_n = ((2.0 * c.edge / h).round() as u64).max(4);
-            4 * local_n.pow(3) + 8 * (local_n / 2 + 1) * local_n * local_n
+            let local_n = ((2.0 * c.edge / h).round() as usize).max(4);
+            IndicatorWork::bytes(local_n)
         })
         .max()
         .unwrap_or(0);
@@ -543,11 +599,21 @@ fn support_range(cell: &LeafTask, scale: Real, origin: &Point3, h: Real, n: usiz
     (lo, hi)
 }
 
-fn solve_leaf(samples: &Samples, cell: &LeafTask, grid: &LeafGrid) -> Solved {
-    let (origin, h, n) = (&Point3::from(grid.origin), grid.h, grid.n);
+/// A leaf's solve. `parallel`: whether its local FFT spreads over the threads, as it should when few
+/// leaves are solved at once; many at once are better each on a thread of its own.
+fn solve_leaf(samples: &Samples, cell: &LeafTask, grid: &LeafGrid, parallel: bool) -> Solved {
     // Local resolution so the local spacing equals the global one: 2·edge / h points.
-    let local_n = ((2.0 * cell.edge / h).round() as usize).max(4);
-    let (chi, cube, level) = samples.local_chi(cell, grid.scale, local_n, grid.smoothing_cells);
+    let local_n = ((2.0 * cell.edge / grid.h).round() as usize).max(4);
+    samples.solve_in_work(local_n, parallel, |work| {
+        let (cube, level) = samples.local_chi(cell, grid.scale, work, grid.smoothing_cells);
+        cut_to_support(work.chi(), &cube, &level, cell, grid)
+    })
+}
+
+/// A leaf's χ − iso on the global grid points of its support, with its blending weights.
+fn cut_to_support(chi: &[f32], cube: &Cube, level: &Level, cell: &LeafTask, grid: &LeafGrid) -> Solved {
+    let (origin, h, n) = (&Point3::from(grid.origin), grid.h, grid.n);
+    let local_n = cube.n;
     let (lo, hi) = support_range(cell, grid.scale, origin, h, n);
     let dims = [hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1];
     // Global point (lo + a) sits at local index (lo + a) − offset; the octree keeps the two grids
@@ -619,10 +685,16 @@ pub fn reconstruct_adfft_counting<'a>(
     let (mesh, peak) = extract(&grid, &coarse, 0..grid.n - 1, planes, step, |k| {
         let starting: Vec<usize> = order[next..].iter().copied().take_while(|&l| plan.ranges[l].0[2] <= k).collect();
         next += starting.len();
-        starting.par_iter().map(|&l| ActiveLeaf::new(l, solve_leaf(samples, &leaves[l], &grid))).collect()
+        // Fewer leaves than threads: each solve spreads over them; more: a solve per thread.
+        let parallel = starting.len() < rayon::current_num_threads();
+        starting.par_iter().map(|&l| ActiveLeaf::new(l, solve_leaf(samples, &leaves[l], &grid, parallel))).collect()
     });
     let Plan { samples, mut report, .. } = plan;
     report.peak_active_leaves = peak;
+    samples.release_works();
+    // The sweep freed its leaves a plane at a time, in small blocks the allocator keeps resident;
+    // handed back, the clean-up's peak starts from the mesh, not from the sweep's high-water mark.
+    crate::pipeline::memory::release_freed();
     Ok(clean(mesh, &samples.tree, params, report, t))
 }
 
@@ -834,12 +906,9 @@ fn plan<'a>(cloud: rig::CloudRef<'a>, params: &AdFftParams) -> Result<Plan<'a>, 
     }
     let start = Instant::now();
     let (origin, size) = bounding_cube(cloud.positions, params.padding);
-    let samples = Samples {
-        positions: cloud.positions,
-        normals,
-        weights: area_weights(cloud.positions, params.area_k),
-        tree: PointTree::new(cloud.positions),
-    };
+    let tree = PointTree::new(cloud.positions);
+    let weights = area_weights_in(cloud.positions, params.area_k, &tree);
+    let samples = Samples::with_tree(cloud.positions, normals, weights, tree);
     let area: Real = samples.weights.iter().sum();
     let (depth, per_cell) = supported_depth(params.depth, cloud.len(), area, size, params.samples_per_cell);
     if per_cell < MIN_SAMPLES_PER_CELL {

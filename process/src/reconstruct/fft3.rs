@@ -1,5 +1,11 @@
 //! Three-dimensional real FFT of an N³ grid (x fastest): real-to-complex along x, which halves the
 //! spectrum to (N/2 + 1)·N·N, then complex transforms along y and z; rayon over lines.
+//!
+//! The spectrum is kept z-fastest: entry (kx, ky, kz) at `kz + N·(kx + half·ky)`. The transform
+//! along z then runs over contiguous lines, and one blocked transpose (in parallel) turns the
+//! y-transformed grid into that layout, where gathering each z-line across N planes and scattering
+//! it back (the layout x-fastest) took a third of a leaf's solve in AdFFT. Whoever multiplies the
+//! spectrum reads it in this layout ([`RealFft3::spectrum_index`]).
 
 use rayon::prelude::*;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
@@ -14,10 +20,14 @@ pub struct RealFft3 {
     c2r: Arc<dyn ComplexToReal<f32>>,
     forward: Arc<dyn Fft<f32>>,
     inverse: Arc<dyn Fft<f32>>,
+    /// Fewest lines one rayon job takes: 1 spreads a transform over the threads; `usize::MAX` keeps
+    /// it on the calling thread, for solves that are themselves run side by side (AdFFT's leaves).
+    min_len: usize,
 }
 
-/// z-lines gathered per batch: enough to keep both cores busy, little memory beside the grid.
-const Z_BATCH_ROWS: usize = 8;
+/// Columns moved together by the transforms along y and the transposes: 8 complex f32 are one
+/// 64-byte cache line, so each line read is used whole.
+const BLOCK: usize = 8;
 
 impl RealFft3 {
     /// Plans transforms of an `n`³ grid; `n` even.
@@ -31,7 +41,19 @@ impl RealFft3 {
             c2r: real.plan_fft_inverse(n),
             forward: complex.plan_fft_forward(n),
             inverse: complex.plan_fft_inverse(n),
+            min_len: 1,
         }
+    }
+
+    /// Whether the transforms spread over rayon's threads (the default) or stay on the caller's.
+    pub fn set_parallel(&mut self, parallel: bool) {
+        self.min_len = if parallel { 1 } else { usize::MAX };
+    }
+
+    /// What [`RealFft3::set_parallel`] set, as the fewest items of a rayon job (for the caller's own
+    /// loops over the same grid).
+    pub fn min_len(&self) -> usize {
+        self.min_len
     }
 
     /// Grid points per axis.
@@ -44,92 +66,127 @@ impl RealFft3 {
         self.n / 2 + 1
     }
 
-    /// The spectrum's length, (N/2 + 1)·N·N; entry (kx, ky, kz) at `kx + half·(ky + N·kz)`.
+    /// The spectrum's length, (N/2 + 1)·N·N.
     pub fn spectrum_len(&self) -> usize {
         self.half() * self.n * self.n
     }
 
-    /// Forward transform. `real` (N³) is used as scratch and left garbage.
-    pub fn forward(&self, real: &mut [f32], spectrum: &mut [Complex32]) {
-        let (n, h) = (self.n, self.half());
-        assert_eq!((real.len(), spectrum.len()), (n * n * n, self.spectrum_len()));
-        real.par_chunks_mut(n).zip(spectrum.par_chunks_mut(h)).for_each_init(
-            || self.r2c.make_scratch_vec(),
-            |scratch, (line, out)| self.r2c.process_with_scratch(line, out, scratch).expect("lengths match"),
-        );
-        self.along_y(spectrum, &self.forward);
-        self.along_z(spectrum, &self.forward);
+    /// Where entry (kx, ky, kz) of the spectrum is.
+    pub fn spectrum_index(&self, kx: usize, ky: usize, kz: usize) -> usize {
+        kz + self.n * (kx + self.half() * ky)
     }
 
-    /// Inverse transform (unnormalised: a forward–inverse round trip scales by N³). `spectrum` is
-    /// left garbage.
-    pub fn inverse(&self, spectrum: &mut [Complex32], real: &mut [f32]) {
+    /// The grid of N³ real values (x fastest) held at the start of a spectrum-sized buffer: the
+    /// forward transform reads its input there and the inverse leaves its output there.
+    pub fn real_part<'b>(&self, buffer: &'b mut [Complex32]) -> &'b mut [f32] {
+        let n3 = self.n * self.n * self.n;
+        &mut bytemuck::cast_slice_mut::<Complex32, f32>(buffer)[..n3]
+    }
+
+    /// [`RealFft3::real_part`], to read.
+    pub fn real_view<'b>(&self, buffer: &'b [Complex32]) -> &'b [f32] {
+        let n3 = self.n * self.n * self.n;
+        &bytemuck::cast_slice::<Complex32, f32>(buffer)[..n3]
+    }
+
+    /// Forward transform of the real grid in `buffer` ([`RealFft3::real_part`]) into its spectrum, in
+    /// `buffer` too; `scratch` (spectrum-sized) is left garbage.
+    pub fn forward(&self, buffer: &mut [Complex32], scratch: &mut [Complex32]) {
         let (n, h) = (self.n, self.half());
-        assert_eq!((real.len(), spectrum.len()), (n * n * n, self.spectrum_len()));
-        self.along_z(spectrum, &self.inverse);
-        self.along_y(spectrum, &self.inverse);
-        spectrum.par_chunks_mut(h).zip(real.par_chunks_mut(n)).for_each_init(
+        assert_eq!((buffer.len(), scratch.len()), (self.spectrum_len(), self.spectrum_len()));
+        let real = self.real_part(buffer);
+        real.par_chunks_mut(n).zip(scratch.par_chunks_mut(h)).with_min_len(self.min_len).for_each_init(
+            || self.r2c.make_scratch_vec(),
+            |work, (line, out)| self.r2c.process_with_scratch(line, out, work).expect("lengths match"),
+        );
+        self.along_y(scratch, &self.forward);
+        self.to_z_fastest(scratch, buffer);
+        self.along_z(buffer, &self.forward);
+    }
+
+    /// Inverse transform (unnormalised: a forward–inverse round trip scales by N³) of the spectrum in
+    /// `buffer`, leaving the real grid in [`RealFft3::real_part`] of it; `scratch` is left garbage.
+    pub fn inverse(&self, buffer: &mut [Complex32], scratch: &mut [Complex32]) {
+        let (n, h) = (self.n, self.half());
+        assert_eq!((buffer.len(), scratch.len()), (self.spectrum_len(), self.spectrum_len()));
+        self.along_z(buffer, &self.inverse);
+        self.to_x_fastest(buffer, scratch);
+        self.along_y(scratch, &self.inverse);
+        let real = self.real_part(buffer);
+        scratch.par_chunks_mut(h).zip(real.par_chunks_mut(n)).with_min_len(self.min_len).for_each_init(
             || self.c2r.make_scratch_vec(),
-            |scratch, (line, out)| {
+            |work, (line, out)| {
                 // A real signal's spectrum has real DC and Nyquist terms; rounding leaves tiny
                 // imaginary parts there, which the transform would refuse.
                 line[0].im = 0.0;
                 line[h - 1].im = 0.0;
-                self.c2r.process_with_scratch(line, out, scratch).expect("lengths match");
+                self.c2r.process_with_scratch(line, out, work).expect("lengths match");
             },
         );
     }
 
-    /// Transforms along y: each z-slab is contiguous, so slabs go in parallel.
-    fn along_y(&self, spectrum: &mut [Complex32], fft: &Arc<dyn Fft<f32>>) {
+    /// Transforms along y of a grid x-fastest (entry (kx, y, z) at `kx + half·(y + N·z)`): each
+    /// z-slab is contiguous, so slabs go in parallel; within one, [`BLOCK`] columns are gathered at a
+    /// time and transformed in one call.
+    fn along_y(&self, grid: &mut [Complex32], fft: &Arc<dyn Fft<f32>>) {
         let (n, h) = (self.n, self.half());
-        spectrum.par_chunks_mut(h * n).for_each_init(
-            || (vec![Complex32::default(); n], vec![Complex32::default(); fft.get_inplace_scratch_len()]),
-            |(line, scratch), slab| {
-                for kx in 0..h {
+        grid.par_chunks_mut(h * n).with_min_len(self.min_len).for_each_init(
+            || (vec![Complex32::default(); BLOCK * n], vec![Complex32::default(); fft.get_inplace_scratch_len()]),
+            |(lines, scratch), slab| {
+                for kx0 in (0..h).step_by(BLOCK) {
+                    let width = BLOCK.min(h - kx0);
                     for y in 0..n {
-                        line[y] = slab[kx + h * y];
+                        for (j, v) in slab[kx0 + h * y..][..width].iter().enumerate() {
+                            lines[j * n + y] = *v;
+                        }
                     }
-                    fft.process_with_scratch(line, scratch);
+                    fft.process_with_scratch(&mut lines[..width * n], scratch);
                     for y in 0..n {
-                        slab[kx + h * y] = line[y];
+                        for (j, v) in slab[kx0 + h * y..][..width].iter_mut().enumerate() {
+                            *v = lines[j * n + y];
+                        }
                     }
                 }
             },
         );
     }
 
-    /// Transforms along z: lines cross every slab, so batches of y-rows are gathered, transformed in
-    /// parallel and scattered back.
+    /// Transforms along z of the spectrum z-fastest: contiguous lines, in parallel.
     fn along_z(&self, spectrum: &mut [Complex32], fft: &Arc<dyn Fft<f32>>) {
-        let (n, h) = (self.n, self.half());
-        for rows in (0..n).collect::<Vec<_>>().chunks(Z_BATCH_ROWS) {
-            let done: Vec<Vec<Complex32>> = rows
-                .par_iter()
-                .map_init(
-                    || vec![Complex32::default(); fft.get_inplace_scratch_len()],
-                    |scratch, &y| {
-                        // The row's h lines of length n, line by line.
-                        let mut block = vec![Complex32::default(); h * n];
-                        for kx in 0..h {
-                            let line = &mut block[kx * n..(kx + 1) * n];
-                            for (z, v) in line.iter_mut().enumerate() {
-                                *v = spectrum[kx + h * (y + n * z)];
-                            }
-                            fft.process_with_scratch(line, scratch);
-                        }
-                        block
-                    },
-                )
-                .collect();
-            for (&y, block) in rows.iter().zip(done) {
-                for kx in 0..h {
-                    for z in 0..n {
-                        spectrum[kx + h * (y + n * z)] = block[kx * n + z];
-                    }
+        let n = self.n;
+        spectrum.par_chunks_mut(BLOCK * n).with_min_len(self.min_len).for_each_init(
+            || vec![Complex32::default(); fft.get_inplace_scratch_len()],
+            |scratch, lines| fft.process_with_scratch(lines, scratch),
+        );
+    }
+
+    /// `to[c·N + z] = from[z·(half·N) + c]`: the x-fastest grid, an N × (half·N) matrix, transposed
+    /// into the z-fastest layout; blocks of [`BLOCK`] output lines in parallel.
+    fn to_z_fastest(&self, from: &[Complex32], to: &mut [Complex32]) {
+        let (n, row) = (self.n, self.half() * self.n);
+        to.par_chunks_mut(BLOCK * n).enumerate().with_min_len(self.min_len).for_each(|(b, block)| {
+            let c0 = b * BLOCK;
+            let width = block.len() / n;
+            for z in 0..n {
+                for (j, v) in from[z * row + c0..][..width].iter().enumerate() {
+                    block[j * n + z] = *v;
                 }
             }
-        }
+        });
+    }
+
+    /// The inverse of [`RealFft3::to_z_fastest`]: blocks of [`BLOCK`] z-planes in parallel.
+    fn to_x_fastest(&self, from: &[Complex32], to: &mut [Complex32]) {
+        let (n, row) = (self.n, self.half() * self.n);
+        to.par_chunks_mut(BLOCK * row).enumerate().with_min_len(self.min_len).for_each(|(b, planes)| {
+            let z0 = b * BLOCK;
+            let depth = planes.len() / row;
+            for c in 0..row {
+                for (dz, v) in from[c * n + z0..][..depth].iter().enumerate() {
+                    planes[dz * row + c] = *v;
+                }
+            }
+        });
     }
 }
 
@@ -139,25 +196,30 @@ mod tests {
 
     #[test]
     fn a_round_trip_restores_the_grid_and_a_plane_wave_lands_on_its_frequency() {
-        let n = 12;
-        let fft = RealFft3::new(n);
-        let wave = |x: usize, y: usize, z: usize| {
-            let t = std::f32::consts::TAU * (2.0 * x as f32 + 3.0 * y as f32 + 5.0 * z as f32) / n as f32;
-            t.cos()
-        };
-        let grid: Vec<f32> = (0..n * n * n).map(|i| wave(i % n, (i / n) % n, i / (n * n)) + 0.25).collect();
-        let mut real = grid.clone();
-        let mut spectrum = vec![Complex32::default(); fft.spectrum_len()];
-        fft.forward(&mut real, &mut spectrum);
-        let total = (n * n * n) as f32;
-        let at = |kx: usize, ky: usize, kz: usize| spectrum[kx + fft.half() * (ky + n * kz)];
-        // cos(ω·x) puts N³/2 at +ω (the conjugate at −ω is not stored in the half spectrum).
-        assert!((at(2, 3, 5).re - total / 2.0).abs() < 1e-2 * total, "{:?}", at(2, 3, 5));
-        assert!((at(0, 0, 0).re - 0.25 * total).abs() < 1e-3 * total);
-        let others: f32 = spectrum.iter().map(|c| c.norm()).sum::<f32>() - at(2, 3, 5).norm() - at(0, 0, 0).norm();
-        assert!(others < 1e-2 * total, "leakage {others}");
-        fft.inverse(&mut spectrum, &mut real);
-        let worst = real.iter().zip(&grid).map(|(r, g)| (r / total - g).abs()).fold(0.0, f32::max);
-        assert!(worst < 1e-4, "round trip off by {worst}");
+        // 12 is not a multiple of the transposes' blocks: their ragged ends are covered too.
+        for (n, parallel) in [(12, true), (16, true), (16, false)] {
+            let mut fft = RealFft3::new(n);
+            fft.set_parallel(parallel);
+            let wave = |x: usize, y: usize, z: usize| {
+                let t = std::f32::consts::TAU * (2.0 * x as f32 + 3.0 * y as f32 + 5.0 * z as f32) / n as f32;
+                t.cos()
+            };
+            let grid: Vec<f32> = (0..n * n * n).map(|i| wave(i % n, (i / n) % n, i / (n * n)) + 0.25).collect();
+            let mut buffer = vec![Complex32::default(); fft.spectrum_len()];
+            let mut scratch = buffer.clone();
+            fft.real_part(&mut buffer).copy_from_slice(&grid);
+            fft.forward(&mut buffer, &mut scratch);
+            let total = (n * n * n) as f32;
+            let at = |kx: usize, ky: usize, kz: usize| buffer[fft.spectrum_index(kx, ky, kz)];
+            // cos(ω·x) puts N³/2 at +ω (the conjugate at −ω is not stored in the half spectrum).
+            assert!((at(2, 3, 5).re - total / 2.0).abs() < 1e-2 * total, "{:?}", at(2, 3, 5));
+            assert!((at(0, 0, 0).re - 0.25 * total).abs() < 1e-3 * total);
+            let others: f32 = buffer.iter().map(|c| c.norm()).sum::<f32>() - at(2, 3, 5).norm() - at(0, 0, 0).norm();
+            assert!(others < 1e-2 * total, "leakage {others}");
+            fft.inverse(&mut buffer, &mut scratch);
+            let real = fft.real_part(&mut buffer);
+            let worst = real.iter().zip(&grid).map(|(r, g)| (r / total - g).abs()).fold(0.0, f32::max);
+            assert!(worst < 1e-4, "round trip off by {worst}");
+        }
     }
 }

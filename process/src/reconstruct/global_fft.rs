@@ -7,7 +7,7 @@
 //! low-pass that stands in for the thesis's smoothing filter), and one inverse FFT. The surface is
 //! χ's level set at the area-weighted mean of χ over the samples, extracted by marching cubes.
 //!
-//! Memory is cubic in N: a real grid and two half spectra, 12·N³ bytes (201 MB at 256³, 1.6 GB at
+//! Memory is cubic in N: three half spectra (the real grid shares one), 12·N³ bytes (201 MB at 256³, 1.6 GB at
 //! 512³); a grid over the budget is refused before anything is allocated.
 
 use super::fft3::RealFft3;
@@ -130,8 +130,7 @@ pub fn check_memory(
 /// Bytes the global method needs at depth `depth`.
 pub fn grid_bytes(depth: u32) -> u64 {
     let n = 1u64 << depth;
-    // The real grid (4 bytes per point) and two spectra of (N/2 + 1)·N² complex f32.
-    4 * n * n * n + 2 * 8 * (n / 2 + 1) * n * n
+    IndicatorWork::bytes(n as usize)
 }
 
 /// The cube the grid spans: the points' bounding cube grown by `padding` on each side.
@@ -195,15 +194,26 @@ pub const AREA_MAX_WIDENINGS: usize = 3;
 /// Area weights are capped at this multiple of their median.
 const WEIGHT_CAP: Real = 4.0;
 
-/// Trilinear weights of a point at continuous grid coordinates `u`: the lower corner and the 8 weights.
-fn trilinear(u: Vector3) -> ([isize; 3], [Real; 8]) {
+/// A point's trilinear stencil on the periodic N³ grid: the flat indices of its 8 corners (wrapped,
+/// corner c at +(c & 1, c >> 1 & 1, c >> 2 & 1)) and their weights.
+type Stencil = ([usize; 8], [Real; 8]);
+
+/// The trilinear stencil of a point at continuous grid coordinates `u`. The corners are wrapped once
+/// per axis here, not once per corner and axis where they are used: three integer divisions per corner
+/// had made the splat a sixth of an AdFFT run.
+fn trilinear(u: Vector3, n: usize) -> Stencil {
     let base = [u.x.floor() as isize, u.y.floor() as isize, u.z.floor() as isize];
     let f = [u.x - base[0] as Real, u.y - base[1] as Real, u.z - base[2] as Real];
     let w = std::array::from_fn(|c| {
         let pick = |axis: usize| if c >> axis & 1 == 1 { f[axis] } else { 1.0 - f[axis] };
         pick(0) * pick(1) * pick(2)
     });
-    (base, w)
+    let wrapped: [[usize; 2]; 3] = std::array::from_fn(|axis| {
+        let lo = base[axis].rem_euclid(n as isize) as usize;
+        [lo, if lo + 1 == n { 0 } else { lo + 1 }]
+    });
+    let at = std::array::from_fn(|c| wrapped[0][c & 1] + n * (wrapped[1][c >> 1 & 1] + n * wrapped[2][c >> 2 & 1]));
+    (at, w)
 }
 
 /// Points bucketed by the grid plane their trilinear corners start in, for splatting z-slabs of the
@@ -220,19 +230,20 @@ struct ZSlabs {
 }
 
 impl ZSlabs {
-    fn new(corners: &[([isize; 3], [Real; 8])], n: usize) -> Self {
-        let plane = |b: &[isize; 3]| b[2].rem_euclid(n as isize) as usize;
+    fn new(corners: &[Stencil], n: usize) -> Self {
+        // The lower corner's plane.
+        let plane = |at: &[usize; 8]| at[0] / (n * n);
         let mut starts = vec![0usize; n + 1];
-        for (b, _) in corners {
-            starts[plane(b) + 1] += 1;
+        for (at, _) in corners {
+            starts[plane(at) + 1] += 1;
         }
         for z in 0..n {
             starts[z + 1] += starts[z];
         }
         let mut next = starts.clone();
         let mut order = vec![0u32; corners.len()];
-        for (i, (b, _)) in corners.iter().enumerate() {
-            let z = plane(b);
+        for (i, (at, _)) in corners.iter().enumerate() {
+            let z = plane(at);
             order[next[z]] = i as u32;
             next[z] += 1;
         }
@@ -243,29 +254,31 @@ impl ZSlabs {
     }
 
     /// `grid = Σ_i value(i) · trilinear weights of point i` (eq. 5.16's splat of V).
-    fn splat(&self, grid: &mut [f32], corners: &[([isize; 3], [Real; 8])], value: impl Fn(usize) -> Real + Sync) {
+    /// `min_len`: the fewest slabs a rayon job takes (`usize::MAX`: all on this thread).
+    fn splat(&self, grid: &mut [f32], corners: &[Stencil], min_len: usize, value: impl Fn(usize) -> Real + Sync) {
         let (n, t) = (self.n, self.thickness);
         let plane_len = n * n;
         let spills: Vec<(usize, Vec<f32>)> = grid
             .par_chunks_mut(t * plane_len)
             .enumerate()
+            .with_min_len(min_len)
             .map(|(s, slab)| {
                 slab.fill(0.0);
                 let (z0, z1) = (s * t, ((s + 1) * t).min(n));
                 let spill_plane = z1 % n;
                 let mut spill = vec![0f32; plane_len];
+                // The slab's and the spill plane's points, as flat indices.
+                let (lo, hi, spill_start) = (z0 * plane_len, z1 * plane_len, spill_plane * plane_len);
                 for &i in &self.order[self.starts[z0]..self.starts[z1]] {
                     let i = i as usize;
-                    let (base, w) = &corners[i];
+                    let (at, w) = &corners[i];
                     let v = value(i);
-                    for (c, wc) in w.iter().enumerate() {
-                        let at = index(n, *base, c);
-                        let z = at / plane_len;
+                    for (&a, wc) in at.iter().zip(w) {
                         let add = (v * wc) as f32;
-                        if (z0..z1).contains(&z) {
-                            slab[at - z0 * plane_len] += add;
+                        if (lo..hi).contains(&a) {
+                            slab[a - lo] += add;
                         } else {
-                            spill[at - z * plane_len] += add;
+                            spill[a - spill_start] += add;
                         }
                     }
                 }
@@ -278,16 +291,6 @@ impl ZSlabs {
             }
         }
     }
-}
-
-fn index(n: usize, base: [isize; 3], c: usize) -> usize {
-    let wrap = |v: isize| v.rem_euclid(n as isize) as usize;
-    let (x, y, z) = (
-        wrap(base[0] + (c & 1) as isize),
-        wrap(base[1] + (c >> 1 & 1) as isize),
-        wrap(base[2] + (c >> 2 & 1) as isize),
-    );
-    x + n * (y + n * z)
 }
 
 /// An N³ grid over a cube: point (i, j, k) at `origin + cell·(i, j, k)`.
@@ -319,74 +322,134 @@ pub fn indicator(
     smoothing_cells: Real,
     report: &mut FftReport,
 ) -> Vec<f32> {
+    let mut work = IndicatorWork::new(cube.n);
+    solve_indicator(points, normals, weights, cube, smoothing_cells, report, &mut work);
+    // The other two spectra go before χ is copied out of the third.
+    let IndicatorWork { fft, chi_hat, buffer, scratch } = work;
+    drop((buffer, scratch));
+    fft.real_view(&chi_hat).to_vec()
+}
+
+/// The buffers of one χ solve on an N³ grid: three half spectra, the splat's real grid sharing one and
+/// χ left in another. AdFFT keeps them from one leaf to the next ([`solve_indicator`]), where each
+/// solve at 128³ had allocated and faulted in 34 MB of fresh memory.
+pub struct IndicatorWork {
+    fft: RealFft3,
+    buffer: Vec<Complex32>,
+    scratch: Vec<Complex32>,
+    chi_hat: Vec<Complex32>,
+}
+
+impl IndicatorWork {
+    /// Buffers for an `n`³ grid (`n` even).
+    pub fn new(n: usize) -> Self {
+        let fft = RealFft3::new(n);
+        let len = fft.spectrum_len();
+        let zeros = || vec![Complex32::default(); len];
+        IndicatorWork { buffer: zeros(), scratch: zeros(), chi_hat: zeros(), fft }
+    }
+
+    /// Grid points per axis.
+    pub fn n(&self) -> usize {
+        self.fft.n()
+    }
+
+    /// Whether a solve spreads over rayon's threads (the default) or stays on the caller's, as a solve
+    /// among others run side by side should: a thread waiting inside a solve's parallel loop would
+    /// start another solve, and hold its buffers too.
+    pub fn set_parallel(&mut self, parallel: bool) {
+        self.fft.set_parallel(parallel);
+    }
+
+    /// χ of the last [`solve_indicator`] (N³ values, x fastest).
+    pub fn chi(&self) -> &[f32] {
+        self.fft.real_view(&self.chi_hat)
+    }
+
+    /// Bytes the buffers hold for an `n`³ grid.
+    pub fn bytes(n: usize) -> u64 {
+        3 * 8 * (n as u64 / 2 + 1) * (n as u64).pow(2)
+    }
+}
+
+/// [`indicator`] into `work` (its grid is the cube's), where [`IndicatorWork::chi`] reads χ after.
+pub fn solve_indicator(
+    points: &[Point3],
+    normals: &[Vector3],
+    weights: &[Real],
+    cube: &Cube,
+    smoothing_cells: Real,
+    report: &mut FftReport,
+    work: &mut IndicatorWork,
+) {
     let t = Instant::now();
     let Cube { origin, size, n } = *cube;
+    assert_eq!(work.n(), n, "the work's grid is the cube's");
     let cell = cube.cell();
-    let fft = RealFft3::new(n);
-    let mut real = vec![0f32; n * n * n];
-    let mut spectrum = vec![Complex32::default(); fft.spectrum_len()];
-    let mut chi_hat = vec![Complex32::default(); fft.spectrum_len()];
-    let corners: Vec<([isize; 3], [Real; 8])> = points.par_iter().map(|p| trilinear((p - origin) / cell)).collect();
+    let IndicatorWork { fft, buffer, scratch, chi_hat } = work;
+    let min_len = fft.min_len();
+    let corners: Vec<Stencil> =
+        points.par_iter().with_min_len(min_len).map(|p| trilinear((p - origin) / cell, n)).collect();
     let h = fft.half();
     let two_pi_over_size = std::f64::consts::TAU / size;
     let sigma = smoothing_cells * cell;
-    // The low-pass G(ω) = exp(−σ²|ω|²/2) is the product of one factor per axis: a table of n
-    // factors replaces an exp per frequency and axis (a fifth of a leaf's solve in AdFFT).
+    // ω per index, and the low-pass G(ω) = exp(−σ²|ω|²/2) as one factor per axis: a table of n
+    // factors replaces an exp per frequency and axis (a fifth of a leaf's solve in AdFFT). The
+    // Nyquist index has no signed frequency; its factor is 0, dropping those planes (their content
+    // is below the filter).
     let signed = |k: usize| if k <= n / 2 { k as Real } else { k as Real - n as Real };
-    let low_pass: Vec<Real> = (0..n).map(|k| (-0.5 * (signed(k) * two_pi_over_size * sigma).powi(2)).exp()).collect();
+    let omega: Vec<f32> = (0..n).map(|k| (signed(k) * two_pi_over_size) as f32).collect();
+    let low_pass: Vec<f32> = (0..n)
+        .map(|k| if k == n / 2 { 0.0 } else { (-0.5 * (signed(k) * two_pi_over_size * sigma).powi(2)).exp() as f32 })
+        .collect();
     let slabs = ZSlabs::new(&corners, n);
     let mut splat_seconds = t.elapsed().as_secs_f64();
     let mut fft_seconds = 0.0;
     for axis in 0..3 {
         let t = Instant::now();
-        slabs.splat(&mut real, &corners, |i| normals[i][axis] * weights[i]);
+        slabs.splat(fft.real_part(buffer), &corners, min_len, |i| normals[i][axis] * weights[i]);
         splat_seconds += t.elapsed().as_secs_f64();
         let t = Instant::now();
-        fft.forward(&mut real, &mut spectrum);
-        // χ̂ += i·ω_axis·V̂_axis / |ω|² · G(ω), over z-slabs in parallel.
-        chi_hat.par_chunks_mut(h * n).zip(spectrum.par_chunks(h * n)).enumerate().for_each(|(kz, (acc, src))| {
-            let wz = signed(kz) * two_pi_over_size;
-            for ky in 0..n {
-                let wy = signed(ky) * two_pi_over_size;
-                let g_yz = low_pass[ky] * low_pass[kz];
+        fft.forward(buffer, scratch);
+        // χ̂ (+)= i·ω_axis·V̂_axis / |ω|² · G(ω), a ky-plane of the spectrum (z fastest,
+        // [`RealFft3::spectrum_index`]) per job; the first axis assigns, so the buffer needs no
+        // clearing between solves.
+        chi_hat.par_chunks_mut(h * n).zip(buffer.par_chunks(h * n)).enumerate().with_min_len(min_len).for_each(
+            |(ky, (acc, src))| {
                 for kx in 0..h {
-                    // The Nyquist planes have no signed frequency; their content is below the filter.
-                    if kx == n / 2 || ky == n / 2 || kz == n / 2 {
-                        continue;
+                    let (wx, wy) = (omega[kx], omega[ky]);
+                    let (g_xy, w2_xy) = (low_pass[kx] * low_pass[ky], wx * wx + wy * wy);
+                    let (acc, src) = (&mut acc[kx * n..][..n], &src[kx * n..][..n]);
+                    for kz in 0..n {
+                        let wz = omega[kz];
+                        let w_axis = [wx, wy, wz][axis];
+                        // At ω = 0 (w_axis = 0 too) the gain is 0: the DC term is dropped.
+                        let gain = w_axis * g_xy * low_pass[kz] / (w2_xy + wz * wz).max(f32::MIN_POSITIVE);
+                        let v = src[kz];
+                        let term = Complex32::new(-v.im * gain, v.re * gain); // i·gain·v
+                        acc[kz] = if axis == 0 { term } else { acc[kz] + term };
                     }
-                    let wx = kx as Real * two_pi_over_size;
-                    let w2 = wx * wx + wy * wy + wz * wz;
-                    if w2 == 0.0 {
-                        continue;
-                    }
-                    let w_axis = [wx, wy, wz][axis];
-                    let gain = (w_axis / w2 * low_pass[kx] * g_yz) as f32;
-                    let v = src[kx + h * ky];
-                    // i·gain·v
-                    acc[kx + h * ky] += Complex32::new(-v.im * gain, v.re * gain);
                 }
-            }
-        });
+            },
+        );
         fft_seconds += t.elapsed().as_secs_f64();
     }
-    drop(spectrum);
     let t = Instant::now();
-    fft.inverse(&mut chi_hat, &mut real);
+    fft.inverse(chi_hat, scratch);
     // The unnormalised inverse DFT is the Fourier series times the cube's volume (the splat puts
     // V's integral, not its density, in each cell): dividing gives χ in physical units, a jump of
     // about 1 across the surface, so local solutions on different cubes (AdFFT) agree in scale.
     let volume = (size * size * size) as f32;
-    real.par_iter_mut().for_each(|v| *v /= volume);
+    fft.real_part(chi_hat).par_iter_mut().with_min_len(min_len.max(4096)).for_each(|v| *v /= volume);
     fft_seconds += t.elapsed().as_secs_f64();
     report.seconds_splat += splat_seconds;
     report.seconds_fft += fft_seconds;
-    real
 }
 
 /// χ at continuous position `p` by trilinear interpolation.
 pub fn sample(chi: &[f32], n: usize, origin: Point3, cell: Real, p: &Point3) -> Real {
-    let (base, w) = trilinear((p - origin) / cell);
-    (0..8).map(|c| chi[index(n, base, c)] as Real * w[c]).sum()
+    let (at, w) = trilinear((p - origin) / cell, n);
+    (0..8).map(|c| chi[at[c]] as Real * w[c]).sum()
 }
 
 /// The level of χ the surface passes through: χ's mean over the samples, each weighed by the area it
