@@ -1,11 +1,13 @@
 //! Three-dimensional real FFT of an N³ grid (x fastest): real-to-complex along x, which halves the
 //! spectrum to (N/2 + 1)·N·N, then complex transforms along y and z; rayon over lines.
 //!
-//! The spectrum is kept z-fastest: entry (kx, ky, kz) at `kz + N·(kx + half·ky)`. The transform
-//! along z then runs over contiguous lines, and one blocked transpose (in parallel) turns the
-//! y-transformed grid into that layout, where gathering each z-line across N planes and scattering
-//! it back (the layout x-fastest) took a third of a leaf's solve in AdFFT. Whoever multiplies the
-//! spectrum reads it in this layout ([`RealFft3::spectrum_index`]).
+//! Each z-plane is transformed along x and y in one go, in parallel over planes: its rows along x,
+//! [`BLOCK`] at a time, their spectra written column by column so that the plane is then y-fastest
+//! and its lines along y are contiguous. One blocked transpose (in parallel) turns the grid z-fastest,
+//! entry (kx, ky, kz) at `kz + N·(ky + N·kx)`, where the lines along z are contiguous too. Gathering
+//! each line across the planes and scattering it back, the layout x-fastest throughout, had taken a
+//! third of a leaf's solve in AdFFT. Whoever multiplies the spectrum reads it in this layout
+//! ([`RealFft3::spectrum_index`]).
 
 use rayon::prelude::*;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
@@ -25,8 +27,8 @@ pub struct RealFft3 {
     min_len: usize,
 }
 
-/// Columns moved together by the transforms along y and the transposes: 8 complex f32 are one
-/// 64-byte cache line, so each line read is used whole.
+/// Rows or columns moved together by the planes' transforms and the transposes: 8 complex f32 are
+/// one 64-byte cache line, so each line read is used whole.
 const BLOCK: usize = 8;
 
 impl RealFft3 {
@@ -73,7 +75,7 @@ impl RealFft3 {
 
     /// Where entry (kx, ky, kz) of the spectrum is.
     pub fn spectrum_index(&self, kx: usize, ky: usize, kz: usize) -> usize {
-        kz + self.n * (kx + self.half() * ky)
+        kz + self.n * (ky + self.n * kx)
     }
 
     /// The grid of N³ real values (x fastest) held at the start of a spectrum-sized buffer: the
@@ -95,11 +97,25 @@ impl RealFft3 {
         let (n, h) = (self.n, self.half());
         assert_eq!((buffer.len(), scratch.len()), (self.spectrum_len(), self.spectrum_len()));
         let real = self.real_part(buffer);
-        real.par_chunks_mut(n).zip(scratch.par_chunks_mut(h)).with_min_len(self.min_len).for_each_init(
-            || self.r2c.make_scratch_vec(),
-            |work, (line, out)| self.r2c.process_with_scratch(line, out, work).expect("lengths match"),
+        // Plane z of `scratch`: entry (kx, ky) at `ky + N·kx`.
+        real.par_chunks_mut(n * n).zip(scratch.par_chunks_mut(h * n)).with_min_len(self.min_len).for_each_init(
+            || (self.r2c.make_scratch_vec(), vec![Complex32::default(); BLOCK * h], self.y_scratch(&self.forward)),
+            |(work, rows, y_work), (plane, out)| {
+                for y0 in (0..n).step_by(BLOCK) {
+                    let count = BLOCK.min(n - y0);
+                    for (j, row) in rows.chunks_mut(h).take(count).enumerate() {
+                        let line = &mut plane[(y0 + j) * n..][..n];
+                        self.r2c.process_with_scratch(line, row, work).expect("lengths match");
+                    }
+                    for kx in 0..h {
+                        for (j, v) in out[kx * n + y0..][..count].iter_mut().enumerate() {
+                            *v = rows[j * h + kx];
+                        }
+                    }
+                }
+                self.forward.process_with_scratch(out, y_work);
+            },
         );
-        self.along_y(scratch, &self.forward);
         self.to_z_fastest(scratch, buffer);
         self.along_z(buffer, &self.forward);
     }
@@ -111,44 +127,34 @@ impl RealFft3 {
         assert_eq!((buffer.len(), scratch.len()), (self.spectrum_len(), self.spectrum_len()));
         self.along_z(buffer, &self.inverse);
         self.to_x_fastest(buffer, scratch);
-        self.along_y(scratch, &self.inverse);
         let real = self.real_part(buffer);
-        scratch.par_chunks_mut(h).zip(real.par_chunks_mut(n)).with_min_len(self.min_len).for_each_init(
-            || self.c2r.make_scratch_vec(),
-            |work, (line, out)| {
-                // A real signal's spectrum has real DC and Nyquist terms; rounding leaves tiny
-                // imaginary parts there, which the transform would refuse.
-                line[0].im = 0.0;
-                line[h - 1].im = 0.0;
-                self.c2r.process_with_scratch(line, out, work).expect("lengths match");
-            },
-        );
-    }
-
-    /// Transforms along y of a grid x-fastest (entry (kx, y, z) at `kx + half·(y + N·z)`): each
-    /// z-slab is contiguous, so slabs go in parallel; within one, [`BLOCK`] columns are gathered at a
-    /// time and transformed in one call.
-    fn along_y(&self, grid: &mut [Complex32], fft: &Arc<dyn Fft<f32>>) {
-        let (n, h) = (self.n, self.half());
-        grid.par_chunks_mut(h * n).with_min_len(self.min_len).for_each_init(
-            || (vec![Complex32::default(); BLOCK * n], vec![Complex32::default(); fft.get_inplace_scratch_len()]),
-            |(lines, scratch), slab| {
-                for kx0 in (0..h).step_by(BLOCK) {
-                    let width = BLOCK.min(h - kx0);
-                    for y in 0..n {
-                        for (j, v) in slab[kx0 + h * y..][..width].iter().enumerate() {
-                            lines[j * n + y] = *v;
+        scratch.par_chunks_mut(h * n).zip(real.par_chunks_mut(n * n)).with_min_len(self.min_len).for_each_init(
+            || (self.c2r.make_scratch_vec(), vec![Complex32::default(); BLOCK * h], self.y_scratch(&self.inverse)),
+            |(work, rows, y_work), (plane, out)| {
+                self.inverse.process_with_scratch(plane, y_work);
+                for y0 in (0..n).step_by(BLOCK) {
+                    let count = BLOCK.min(n - y0);
+                    for kx in 0..h {
+                        for (j, v) in plane[kx * n + y0..][..count].iter().enumerate() {
+                            rows[j * h + kx] = *v;
                         }
                     }
-                    fft.process_with_scratch(&mut lines[..width * n], scratch);
-                    for y in 0..n {
-                        for (j, v) in slab[kx0 + h * y..][..width].iter_mut().enumerate() {
-                            *v = lines[j * n + y];
-                        }
+                    for (j, row) in rows.chunks_mut(h).take(count).enumerate() {
+                        // A real signal's spectrum has real DC and Nyquist terms; rounding leaves
+                        // tiny imaginary parts there, which the transform would refuse.
+                        row[0].im = 0.0;
+                        row[h - 1].im = 0.0;
+                        let line = &mut out[(y0 + j) * n..][..n];
+                        self.c2r.process_with_scratch(row, line, work).expect("lengths match");
                     }
                 }
             },
         );
+    }
+
+    /// Scratch for a plane's lines along y, transformed in one call.
+    fn y_scratch(&self, fft: &Arc<dyn Fft<f32>>) -> Vec<Complex32> {
+        vec![Complex32::default(); fft.get_inplace_scratch_len()]
     }
 
     /// Transforms along z of the spectrum z-fastest: contiguous lines, in parallel.
@@ -160,8 +166,8 @@ impl RealFft3 {
         );
     }
 
-    /// `to[c·N + z] = from[z·(half·N) + c]`: the x-fastest grid, an N × (half·N) matrix, transposed
-    /// into the z-fastest layout; blocks of [`BLOCK`] output lines in parallel.
+    /// `to[c·N + z] = from[z·(half·N) + c]`: the planes transformed along x and y, an N × (half·N)
+    /// matrix, transposed into the z-fastest layout; blocks of [`BLOCK`] output lines in parallel.
     fn to_z_fastest(&self, from: &[Complex32], to: &mut [Complex32]) {
         let (n, row) = (self.n, self.half() * self.n);
         to.par_chunks_mut(BLOCK * n).enumerate().with_min_len(self.min_len).for_each(|(b, block)| {

@@ -390,7 +390,6 @@ pub fn solve_indicator(
     let min_len = fft.min_len();
     let corners: Vec<Stencil> =
         points.par_iter().with_min_len(min_len).map(|p| trilinear((p - origin) / cell, n)).collect();
-    let h = fft.half();
     let two_pi_over_size = std::f64::consts::TAU / size;
     let sigma = smoothing_cells * cell;
     // ω per index, and the low-pass G(ω) = exp(−σ²|ω|²/2) as one factor per axis: a table of n
@@ -411,15 +410,15 @@ pub fn solve_indicator(
         splat_seconds += t.elapsed().as_secs_f64();
         let t = Instant::now();
         fft.forward(buffer, scratch);
-        // χ̂ (+)= i·ω_axis·V̂_axis / |ω|² · G(ω), a ky-plane of the spectrum (z fastest,
+        // χ̂ (+)= i·ω_axis·V̂_axis / |ω|² · G(ω), a kx-plane of the spectrum (z fastest,
         // [`RealFft3::spectrum_index`]) per job; the first axis assigns, so the buffer needs no
         // clearing between solves.
-        chi_hat.par_chunks_mut(h * n).zip(buffer.par_chunks(h * n)).enumerate().with_min_len(min_len).for_each(
-            |(ky, (acc, src))| {
-                for kx in 0..h {
+        chi_hat.par_chunks_mut(n * n).zip(buffer.par_chunks(n * n)).enumerate().with_min_len(min_len).for_each(
+            |(kx, (acc, src))| {
+                for ky in 0..n {
                     let (wx, wy) = (omega[kx], omega[ky]);
                     let (g_xy, w2_xy) = (low_pass[kx] * low_pass[ky], wx * wx + wy * wy);
-                    let (acc, src) = (&mut acc[kx * n..][..n], &src[kx * n..][..n]);
+                    let (acc, src) = (&mut acc[ky * n..][..n], &src[ky * n..][..n]);
                     for kz in 0..n {
                         let wz = omega[kz];
                         let w_axis = [wx, wy, wz][axis];
