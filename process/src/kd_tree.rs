@@ -40,6 +40,16 @@ impl PointTree {
             .collect()
     }
 
+    /// The `k` nearest points' indices in no order, and the largest squared distance among them. Where
+    /// only the set and its reach matter (area weights), a heap of the nearest is cheaper than keeping
+    /// them sorted: kiddo's sorted list inserted each candidate, a third of the weights' time.
+    pub fn nearest_k_unsorted(&self, p: &Point3, k: usize) -> (Vec<usize>, f64) {
+        let k = NonZero::new(k.max(1)).expect("k ≥ 1");
+        let found = self.tree.nearest_n_within::<SquaredEuclidean>(&[p.x, p.y, p.z], f64::INFINITY, k, false);
+        let reach = found.iter().map(|n| n.distance).fold(0.0, f64::max);
+        (found.into_iter().map(|n| n.item as usize).collect(), reach)
+    }
+
     /// The `k` nearest points' indices, nearest first.
     pub fn nearest_k(&self, p: &Point3, k: usize) -> Vec<usize> {
         let k = NonZero::new(k.max(1)).expect("k ≥ 1");

@@ -166,15 +166,14 @@ pub fn area_weights_in(points: &[Point3], k: usize, tree: &PointTree) -> Vec<Rea
         .par_iter()
         .map(|p| {
             let mut kk = k;
-            let mut nb = tree.nearest_k(p, kk + 1);
+            let (mut nb, mut r2) = tree.nearest_k_unsorted(p, kk + 1);
             for _ in 0..AREA_MAX_WIDENINGS {
                 if kk * 4 + 1 > points.len() || !crate::normals::is_line(points, &nb) {
                     break;
                 }
                 kk *= 4;
-                nb = tree.nearest_k(p, kk + 1);
+                (nb, r2) = tree.nearest_k_unsorted(p, kk + 1);
             }
-            let r2 = (points[*nb.last().expect("k + 1 ≥ 1")] - p).norm_squared();
             std::f64::consts::PI * r2 / kk as Real
         })
         .collect();
