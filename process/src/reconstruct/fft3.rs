@@ -2,8 +2,8 @@
 //! spectrum to (N/2 + 1)·N·N, then complex transforms along y and z; rayon over lines.
 //!
 //! Each z-plane is transformed along x and y in one go, in parallel over planes: its rows along x,
-//! [`BLOCK`] at a time, their spectra written column by column so that the plane is then y-fastest
-//! and its lines along y are contiguous. One blocked transpose (in parallel) turns the grid z-fastest,
+//! 8 at a time (a cache line of complex f32), their spectra written column by column so that the
+//! plane is then y-fastest and its lines along y are contiguous. One blocked transpose (in parallel) turns the grid z-fastest,
 //! entry (kx, ky, kz) at `kz + N·(ky + N·kx)`, where the lines along z are contiguous too. Gathering
 //! each line across the planes and scattering it back, the layout x-fastest throughout, had taken a
 //! third of a leaf's solve in AdFFT. Whoever multiplies the spectrum reads it in this layout
