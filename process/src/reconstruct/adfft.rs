@@ -1095,7 +1095,7 @@ fn extract(
     layers: Range<usize>,
     planes: &AtomicUsize,
     step: usize,
-    mut start: impl FnMut(usize) -> Vec<ActiveLeaf>,
+    mut start: impl FnMut(usize) -> Vec<ActiveLeaf> + Send,
 ) -> (TriMesh, usize) {
     let n = grid.n;
     let frame = GridFrame { dims: [n; 3], origin: Point3::from(grid.origin), spacing: grid.h };

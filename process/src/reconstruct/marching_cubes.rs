@@ -201,7 +201,7 @@ pub fn marching_cubes(frame: &GridFrame, iso: f32, value: impl Fn(usize, usize, 
 /// [`marching_cubes`] with the values supplied a z-plane at a time: `plane(k)` returns the nx·ny values
 /// of plane k (x fastest) and is called for k = 0, 1, … in order, once each — so a caller can build
 /// each plane from sources it loads and drops as the sweep moves on.
-pub fn marching_cubes_by_plane(frame: &GridFrame, iso: f32, plane: impl FnMut(usize) -> Vec<f32>) -> TriMesh {
+pub fn marching_cubes_by_plane(frame: &GridFrame, iso: f32, plane: impl FnMut(usize) -> Vec<f32> + Send) -> TriMesh {
     marching_cubes_layers(frame, iso, 0..frame.dims[2].saturating_sub(1), plane)
 }
 
@@ -215,27 +215,133 @@ pub fn marching_cubes_layers(
     frame: &GridFrame,
     iso: f32,
     layers: std::ops::Range<usize>,
-    mut plane: impl FnMut(usize) -> Vec<f32>,
+    mut plane: impl FnMut(usize) -> Vec<f32> + Send,
 ) -> TriMesh {
     let [nx, ny, nz] = frame.dims;
-    let mut mesh = TriMesh::default();
     let layers = layers.start..layers.end.min(nz.saturating_sub(1));
     if nx < 2 || ny < 2 || nz < 2 || layers.is_empty() {
-        return mesh;
+        return TriMesh::default();
     }
-    let table = table();
-    let edges = edges();
-    const NONE: u32 = u32::MAX;
-    // Vertex ids of the edges of the current cube layer: x- and y-edges in the lower and upper plane,
-    // z-edges between them. Upper-plane ids become the next layer's lower-plane ids. The planes below
-    // and above the layer are kept for the edge interpolation's outer samples.
+    let mut march = Marcher::new(frame, iso);
+    // The planes below and above the layer are kept for the edge interpolation's outer samples.
     let mut below: Option<Vec<f32>> = layers.start.checked_sub(1).map(&mut plane);
     let mut lower = plane(layers.start);
     let mut upper = plane(layers.start + 1);
-    let (mut x_lo, mut y_lo) = (vec![NONE; nx * ny], vec![NONE; nx * ny]);
+    let mut above = (layers.start + 2 < nz).then(|| plane(layers.start + 2));
+    march.lower_cases(&lower);
     for k in layers.clone() {
-        let above = (k + 2 < nz).then(|| plane(k + 2));
-        let (mut x_hi, mut y_hi, mut z_mid) = (vec![NONE; nx * ny], vec![NONE; nx * ny], vec![NONE; nx * ny]);
+        // The plane after next is made while this layer is marched: a caller whose planes cost work
+        // (AdFFT's solves and blend) keeps the other threads busy beside the serial march. The planes
+        // are still asked for in order, once each.
+        let ahead = k + 1 < layers.end && k + 3 < nz;
+        let window = Window { below: below.as_deref(), lower: &lower, upper: &upper, above: above.as_deref() };
+        let ((), next) = rayon::join(|| march.layer(k, &window), || ahead.then(|| plane(k + 3)));
+        below = Some(std::mem::replace(&mut lower, std::mem::take(&mut upper)));
+        upper = above.take().unwrap_or_default();
+        above = next;
+    }
+    march.mesh
+}
+
+/// Planes k − 1 to k + 2 about cube layer k (the outer two where the grid has them).
+struct Window<'a> {
+    below: Option<&'a [f32]>,
+    lower: &'a [f32],
+    upper: &'a [f32],
+    above: Option<&'a [f32]>,
+}
+
+/// Vertex ids of the edges on one plane (or between two), reset where set once a layer is done with
+/// them: a layer's surface touches a sliver of its plane, and clearing whole planes of ids had been a
+/// twentieth of AdFFT's sweep.
+struct Slots {
+    ids: Vec<u32>,
+    set: Vec<u32>,
+}
+
+impl Slots {
+    const NONE: u32 = u32::MAX;
+
+    fn new(len: usize) -> Self {
+        Slots { ids: vec![Self::NONE; len], set: Vec::new() }
+    }
+
+    fn clear(&mut self) {
+        for &i in &self.set {
+            self.ids[i as usize] = Self::NONE;
+        }
+        self.set.clear();
+    }
+}
+
+/// Marching cubes' state from one cube layer to the next (steps up the grid in z).
+struct Marcher<'f> {
+    frame: &'f GridFrame,
+    iso: f32,
+    table: &'static [Vec<Vec<u8>>; 256],
+    edges: [(usize, usize); 12],
+    /// x- and y-edges in the layer's lower and upper plane, z-edges between them. Upper-plane ids
+    /// become the next layer's lower-plane ids.
+    x_lo: Slots,
+    y_lo: Slots,
+    x_hi: Slots,
+    y_hi: Slots,
+    z_mid: Slots,
+    /// Per square of the lower and upper plane (index i + j·nx), which of its four corners are
+    /// inside: bit dx + 2·dy, the cube's corner bits in that plane.
+    cases_lo: Vec<u8>,
+    cases_hi: Vec<u8>,
+    mesh: TriMesh,
+}
+
+impl<'f> Marcher<'f> {
+    fn new(frame: &'f GridFrame, iso: f32) -> Self {
+        let len = frame.dims[0] * frame.dims[1];
+        Marcher {
+            frame,
+            iso,
+            table: table(),
+            edges: edges(),
+            x_lo: Slots::new(len),
+            y_lo: Slots::new(len),
+            x_hi: Slots::new(len),
+            y_hi: Slots::new(len),
+            z_mid: Slots::new(len),
+            cases_lo: vec![0; len],
+            cases_hi: vec![0; len],
+            mesh: TriMesh::default(),
+        }
+    }
+
+    /// Each square's inside corners in `plane` (NaN counts as outside).
+    fn cases(&self, plane: &[f32], out: &mut [u8]) {
+        let [nx, ny, _] = self.frame.dims;
+        let iso = self.iso;
+        for j in 0..ny - 1 {
+            let (row, next) = (&plane[j * nx..(j + 1) * nx], &plane[(j + 1) * nx..(j + 2) * nx]);
+            for (i, c) in out[j * nx..j * nx + nx - 1].iter_mut().enumerate() {
+                *c = (row[i] > iso) as u8
+                    | ((row[i + 1] > iso) as u8) << 1
+                    | ((next[i] > iso) as u8) << 2
+                    | ((next[i + 1] > iso) as u8) << 3;
+            }
+        }
+    }
+
+    fn lower_cases(&mut self, lower: &[f32]) {
+        let mut out = std::mem::take(&mut self.cases_lo);
+        self.cases(lower, &mut out);
+        self.cases_lo = out;
+    }
+
+    /// Marches cube layer k (between planes k and k + 1 of `w`), then steps up: the upper plane's
+    /// ids and cases become the lower's.
+    fn layer(&mut self, k: usize, w: &Window) {
+        let [nx, ny, nz] = self.frame.dims;
+        let mut hi = std::mem::take(&mut self.cases_hi);
+        self.cases(w.upper, &mut hi);
+        self.cases_hi = hi;
+        let (iso, frame, edges, table) = (self.iso, self.frame, self.edges, self.table);
         // The value at grid point (i, j, k + dk) for dk in −1..=2, where the window holds it.
         let sample = |i: isize, j: isize, dk: isize| -> Option<f32> {
             if i < 0 || j < 0 || i >= nx as isize || j >= ny as isize {
@@ -243,38 +349,39 @@ pub fn marching_cubes_layers(
             }
             let idx = i as usize + j as usize * nx;
             match dk {
-                -1 => below.as_ref().map(|p| p[idx]),
-                0 => Some(lower[idx]),
-                1 => Some(upper[idx]),
-                2 => above.as_ref().map(|p| p[idx]),
+                -1 => w.below.map(|p| p[idx]),
+                0 => Some(w.lower[idx]),
+                1 => Some(w.upper[idx]),
+                2 => w.above.map(|p| p[idx]),
                 _ => None,
             }
         };
+        let Marcher { x_lo, y_lo, x_hi, y_hi, z_mid, cases_lo, cases_hi, mesh, .. } = self;
         for j in 0..ny - 1 {
-            for i in 0..nx - 1 {
-                let at = |c: usize| {
-                    let [dx, dy, dz] = corner(c);
-                    let idx = (i + dx) + (j + dy) * nx;
-                    if dz == 0 { lower[idx] } else { upper[idx] }
-                };
-                let values: [f32; 8] = std::array::from_fn(at);
-                let config = (0..8).fold(0usize, |m, c| m | ((values[c] > iso) as usize) << c);
+            let row = j * nx..j * nx + nx - 1;
+            for ((i, &lo), &hi) in (0..).zip(&cases_lo[row.clone()]).zip(&cases_hi[row]) {
+                let config = (lo | hi << 4) as usize;
                 if config == 0 || config == 255 {
                     continue;
                 }
+                let values: [f32; 8] = std::array::from_fn(|c| {
+                    let [dx, dy, dz] = corner(c);
+                    let idx = (i + dx) + (j + dy) * nx;
+                    if dz == 0 { w.lower[idx] } else { w.upper[idx] }
+                });
                 let mut vertex = |e: usize| -> u32 {
                     let (a, b) = edges[e];
                     let [ax, ay, az] = corner(a);
                     let axis = (b ^ a).trailing_zeros() as usize;
                     let idx = (i + ax) + (j + ay) * nx;
-                    let slot = match (axis, az) {
-                        (0, 0) => &mut x_lo[idx],
-                        (0, _) => &mut x_hi[idx],
-                        (1, 0) => &mut y_lo[idx],
-                        (1, _) => &mut y_hi[idx],
-                        _ => &mut z_mid[idx],
+                    let slots = match (axis, az) {
+                        (0, 0) => &mut *x_lo,
+                        (0, _) => &mut *x_hi,
+                        (1, 0) => &mut *y_lo,
+                        (1, _) => &mut *y_hi,
+                        _ => &mut *z_mid,
                     };
-                    if *slot == NONE {
+                    if slots.ids[idx] == Slots::NONE {
                         // The samples one step beyond each end of the edge, along it.
                         let step = |s: isize| {
                             let mut g = [(i + ax) as isize, (j + ay) as isize, az as isize];
@@ -284,27 +391,33 @@ pub fn marching_cubes_layers(
                         let t = edge_crossing(step(-1), values[a], values[b], step(2), iso);
                         let mut p = frame.point(i + ax, j + ay, k + az);
                         p[axis] += t as Real * frame.spacing;
-                        *slot = mesh.vertices.len() as u32;
+                        slots.ids[idx] = mesh.vertices.len() as u32;
+                        slots.set.push(idx as u32);
                         mesh.vertices.push(p);
                     }
-                    *slot
+                    slots.ids[idx]
                 };
                 for poly in &table[config] {
-                    let ids: Vec<u32> = poly.iter().map(|&e| vertex(e as usize)).collect();
-                    for t in 1..ids.len() - 1 {
+                    let mut ids = [0u32; 12];
+                    for (id, &e) in ids.iter_mut().zip(poly) {
+                        *id = vertex(e as usize);
+                    }
+                    for t in 1..poly.len() - 1 {
                         mesh.faces.push([ids[0], ids[t], ids[t + 1]]);
                     }
                 }
             }
         }
-        below = Some(std::mem::replace(&mut lower, std::mem::take(&mut upper)));
-        if let Some(next) = above {
-            upper = next;
-        }
-        x_lo = x_hi;
-        y_lo = y_hi;
+        debug_assert!(k + 1 < nz);
+        // Step up: the upper plane's x- and y-edge ids are the next layer's lower ones; the spent
+        // lower ids and the z-edges are cleared for reuse.
+        std::mem::swap(x_lo, x_hi);
+        std::mem::swap(y_lo, y_hi);
+        x_hi.clear();
+        y_hi.clear();
+        z_mid.clear();
+        std::mem::swap(cases_lo, cases_hi);
     }
-    mesh
 }
 
 /// The mesh of a grid swept in slabs, from the slabs' meshes in order: slab s ends at plane
