@@ -3,8 +3,8 @@
 
 use crate::TriMesh;
 use crate::union_find::UnionFind;
+use rayon::prelude::*;
 use serde::Serialize;
-use std::collections::HashMap;
 
 /// Edge and vertex counts that decide watertightness, manifoldness and orientation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
@@ -49,60 +49,86 @@ impl Topology {
 }
 
 /// Counts everything in [`Topology`] for a triangle mesh.
+///
+/// Edges are found by sorting the faces' edge keys rather than in a hash map, and each vertex's link
+/// is checked in parallel: on a 1.2 M-triangle reconstruction the map and the per-vertex link lists
+/// had been half a second of serial work after every reconstruction.
 pub fn topology(mesh: &TriMesh) -> Topology {
-    // Per undirected edge: (faces, +1 per a→b traversal with a < b, −1 per b→a).
-    let mut edges: HashMap<(u32, u32), (u32, i32)> = HashMap::with_capacity(mesh.faces.len() * 3 / 2);
-    for f in &mesh.faces {
-        for k in 0..3 {
-            let (a, b) = (f[k], f[(k + 1) % 3]);
-            let e = edges.entry((a.min(b), a.max(b))).or_default();
-            e.0 += 1;
-            e.1 += if a < b { 1 } else { -1 };
-        }
-    }
-    let mut t = Topology { faces: mesh.faces.len(), edges: edges.len(), ..Default::default() };
-    for &(n, dir) in edges.values() {
-        match n {
+    let n = mesh.vertices.len();
+    // Each face edge as (min << 32 | max, +1 when traversed min → max, −1 the other way).
+    let mut keyed: Vec<(u64, i32)> = mesh
+        .faces
+        .par_iter()
+        .flat_map_iter(|f| {
+            (0..3).map(move |k| {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                ((a.min(b) as u64) << 32 | a.max(b) as u64, if a < b { 1 } else { -1 })
+            })
+        })
+        .collect();
+    keyed.par_sort_unstable_by_key(|e| e.0);
+    let mut t = Topology { faces: mesh.faces.len(), ..Default::default() };
+    let mut sets = UnionFind::new(n);
+    let mut used = vec![false; n];
+    for run in keyed.chunk_by(|x, y| x.0 == y.0) {
+        t.edges += 1;
+        let dir: i32 = run.iter().map(|e| e.1).sum();
+        match run.len() {
             1 => t.boundary_edges += 1,
             2 if dir != 0 => t.misoriented_edges += 1,
             2 => {}
             _ => t.non_manifold_edges += 1,
         }
+        // Components by union–find over faces sharing vertices would merge sheets touching at a
+        // vertex; over vertices joined by edges it counts the surface's pieces.
+        let (a, b) = ((run[0].0 >> 32) as usize, (run[0].0 & u32::MAX as u64) as usize);
+        used[a] = true;
+        used[b] = true;
+        sets.union(a, b);
     }
-    // Components by union–find over faces sharing vertices would merge sheets touching at a vertex;
-    // over vertices joined by edges it counts the surface's pieces.
-    let n = mesh.vertices.len();
-    let mut sets = UnionFind::new(n);
-    let mut used = vec![false; n];
-    for &(a, b) in edges.keys() {
-        used[a as usize] = true;
-        used[b as usize] = true;
-        sets.union(a as usize, b as usize);
-    }
+    drop(keyed);
     t.vertices = used.iter().filter(|&&u| u).count();
     t.components = (0..n).filter(|&i| used[i] && sets.find(i) == i).count();
     // A manifold vertex's faces form one fan: the edges opposite it (the link) are one cycle or path.
-    // Count the link's pieces per vertex with a small union–find over its neighbours.
-    let mut link: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
+    // The links side by side (a vertex's at starts[v]..starts[v + 1]), then their pieces counted with
+    // a small union–find over each vertex's neighbours.
+    let mut starts = vec![0usize; n + 1];
+    for f in &mesh.faces {
+        for &v in f {
+            starts[v as usize + 1] += 1;
+        }
+    }
+    for v in 0..n {
+        starts[v + 1] += starts[v];
+    }
+    let mut next = starts.clone();
+    let mut link = vec![(0u32, 0u32); starts[n]];
     for f in &mesh.faces {
         for k in 0..3 {
-            link[f[k] as usize].push((f[(k + 1) % 3], f[(k + 2) % 3]));
+            let v = f[k] as usize;
+            link[next[v]] = (f[(k + 1) % 3], f[(k + 2) % 3]);
+            next[v] += 1;
         }
     }
-    for l in link.iter().filter(|l| !l.is_empty()) {
-        let mut ids: Vec<u32> = l.iter().flat_map(|&(a, b)| [a, b]).collect();
-        ids.sort_unstable();
-        ids.dedup();
-        let mut pieces_of = UnionFind::new(ids.len());
-        let at = |v: u32| ids.binary_search(&v).expect("in link");
-        for &(a, b) in l {
-            pieces_of.union(at(a), at(b));
-        }
-        let pieces = (0..ids.len()).filter(|&i| pieces_of.find(i) == i).count();
-        if pieces > 1 {
-            t.non_manifold_vertices += 1;
-        }
-    }
+    t.non_manifold_vertices = (0..n)
+        .into_par_iter()
+        .with_min_len(4096)
+        .filter(|&v| {
+            let l = &link[starts[v]..starts[v + 1]];
+            if l.is_empty() {
+                return false;
+            }
+            let mut ids: Vec<u32> = l.iter().flat_map(|&(a, b)| [a, b]).collect();
+            ids.sort_unstable();
+            ids.dedup();
+            let mut pieces_of = UnionFind::new(ids.len());
+            let at = |v: u32| ids.binary_search(&v).unwrap_or(0);
+            for &(a, b) in l {
+                pieces_of.union(at(a), at(b));
+            }
+            (0..ids.len()).filter(|&i| pieces_of.find(i) == i).count() > 1
+        })
+        .count();
     t
 }
 
@@ -149,5 +175,74 @@ mod tests {
         let t = topology(&m);
         assert_eq!((t.boundary_edges, t.misoriented_edges, t.non_manifold_vertices), (0, 0, 1));
         assert_eq!(t.genus(), None);
+    }
+
+    /// The counts as first written: edges in a hash map, a link list per vertex. The sorted version
+    /// must agree on any face soup, degenerate faces and unused vertices included.
+    fn reference(mesh: &TriMesh) -> Topology {
+        use std::collections::HashMap;
+        let mut edges: HashMap<(u32, u32), (u32, i32)> = HashMap::new();
+        for f in &mesh.faces {
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                let e = edges.entry((a.min(b), a.max(b))).or_default();
+                e.0 += 1;
+                e.1 += if a < b { 1 } else { -1 };
+            }
+        }
+        let mut t = Topology { faces: mesh.faces.len(), edges: edges.len(), ..Default::default() };
+        for &(n, dir) in edges.values() {
+            match n {
+                1 => t.boundary_edges += 1,
+                2 if dir != 0 => t.misoriented_edges += 1,
+                2 => {}
+                _ => t.non_manifold_edges += 1,
+            }
+        }
+        let n = mesh.vertices.len();
+        let mut sets = UnionFind::new(n);
+        let mut used = vec![false; n];
+        for &(a, b) in edges.keys() {
+            used[a as usize] = true;
+            used[b as usize] = true;
+            sets.union(a as usize, b as usize);
+        }
+        t.vertices = used.iter().filter(|&&u| u).count();
+        t.components = (0..n).filter(|&i| used[i] && sets.find(i) == i).count();
+        let mut link: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];
+        for f in &mesh.faces {
+            for k in 0..3 {
+                link[f[k] as usize].push((f[(k + 1) % 3], f[(k + 2) % 3]));
+            }
+        }
+        for l in link.iter().filter(|l| !l.is_empty()) {
+            let mut ids: Vec<u32> = l.iter().flat_map(|&(a, b)| [a, b]).collect();
+            ids.sort_unstable();
+            ids.dedup();
+            let mut pieces_of = UnionFind::new(ids.len());
+            for &(a, b) in l {
+                pieces_of.union(ids.binary_search(&a).unwrap(), ids.binary_search(&b).unwrap());
+            }
+            if (0..ids.len()).filter(|&i| pieces_of.find(i) == i).count() > 1 {
+                t.non_manifold_vertices += 1;
+            }
+        }
+        t
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn sorted_edges_count_as_the_hash_map_did(
+            vertices in 1usize..12,
+            faces in proptest::collection::vec((0u32..12, 0u32..12, 0u32..12), 0..40),
+        ) {
+            let n = vertices as u32;
+            let mesh = TriMesh {
+                vertices: vec![Point3::origin(); vertices],
+                faces: faces.iter().map(|&(a, b, c)| [a % n, b % n, c % n]).collect(),
+                normals: None,
+            };
+            proptest::prop_assert_eq!(topology(&mesh), reference(&mesh));
+        }
     }
 }
