@@ -207,6 +207,11 @@ pub fn print_summary(o: &mut impl Write, out: &Path, report: &ProcessReport) -> 
     if let Some(s) = &report.reconstruct {
         let r = &s.report.reconstruct;
         writeln!(o, "  mesh: {} triangles, {}³ grid (cell {:.3} mm) ({})", r.triangles(), r.n(), r.cell(), status(s))?;
+        if let process::pipeline::stages::ReconstructReport::Adfft(a) = r
+            && let Some(why) = a.shallower_than_asked()
+        {
+            writeln!(o, "    {why}")?;
+        }
         if let Some(b) = &s.report.finish.base {
             let how = match b.base {
                 process::pipeline::stages::Base::Flat => {

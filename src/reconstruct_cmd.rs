@@ -117,14 +117,9 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
             peak.map_or("unknown".into(), |b| format!("{:.0} MB", b as f64 / 1e6))
         )?;
         if let ReconstructReport::Adfft(r) = report
-            && r.depth < r.depth_asked
+            && let Some(why) = r.shallower_than_asked()
         {
-            writeln!(
-                o,
-                "  depth {} asked; built at depth {}, where the surface's cells hold {:.2} samples each: the samples \
-                 carry no finer detail (--samples-per-cell 0 keeps depth {})",
-                r.depth_asked, r.depth, r.samples_per_cell, r.depth_asked
-            )?;
+            writeln!(o, "  {why}")?;
         }
         match t.genus() {
             Some(g) => writeln!(o, "  closed, oriented 2-manifold: {} component(s), genus {g}", t.components)?,

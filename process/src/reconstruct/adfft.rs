@@ -169,6 +169,19 @@ impl AdFftReport {
     pub fn leaves(&self) -> usize {
         self.leaves_by_depth.iter().sum()
     }
+
+    /// What to tell the user when the grid was built shallower than asked
+    /// ([`AdFftParams::samples_per_cell`]), `None` when it was built as asked: a depth asked and a
+    /// coarser mesh made, unexplained, reads as a defect.
+    pub fn shallower_than_asked(&self) -> Option<String> {
+        (self.depth < self.depth_asked).then(|| {
+            format!(
+                "depth {} asked; built at depth {}, where the surface's cells hold {:.2} samples each: the samples \
+                 carry no finer detail (--samples-per-cell 0 keeps depth {})",
+                self.depth_asked, self.depth, self.samples_per_cell, self.depth_asked
+            )
+        })
+    }
 }
 
 /// An octree cell: its centre, edge and depth, and the indices of the points inside it.
@@ -1157,6 +1170,22 @@ mod tests {
             reconstruct_adfft_counting(&cloud, &AdFftParams { depth: 7, ..Default::default() }, &planes).unwrap();
         assert_eq!(planes.load(Ordering::Relaxed), 128);
         assert_eq!(counted, mesh);
+    }
+
+    /// A grid built shallower than asked says so, naming the depths and the option that keeps the
+    /// asked one; one built as asked says nothing.
+    #[test]
+    fn a_shallower_grid_is_said_with_its_remedy() {
+        let r = AdFftReport { depth_asked: 10, depth: 9, samples_per_cell: 0.558, ..Default::default() };
+        let why = r.shallower_than_asked().unwrap();
+        assert!(
+            why.contains("depth 10 asked; built at depth 9")
+                && why.contains("0.56 samples")
+                && why.contains("--samples-per-cell 0 keeps depth 10"),
+            "{why}"
+        );
+        let r = AdFftReport { depth_asked: 9, depth: 9, ..Default::default() };
+        assert_eq!(r.shallower_than_asked(), None);
     }
 
     /// The level along a row is the level at each of its points.
