@@ -116,10 +116,16 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
             seconds,
             peak.map_or("unknown".into(), |b| format!("{:.0} MB", b as f64 / 1e6))
         )?;
-        if let ReconstructReport::Adfft(r) = report
-            && let Some(why) = r.shallower_than_asked()
-        {
-            writeln!(o, "  {why}")?;
+        if let ReconstructReport::Adfft(r) = report {
+            if let Some(why) = r.shallower_than_asked() {
+                writeln!(o, "  {why}")?;
+            }
+            let f = &r.fit;
+            writeln!(
+                o,
+                "  drawn onto the samples: {} vertices moved, {:.4} on average ({} held at half a cell)",
+                f.moved, f.mean_move, f.limited
+            )?;
         }
         match t.genus() {
             Some(g) => writeln!(o, "  closed, oriented 2-manifold: {} component(s), genus {g}", t.components)?,

@@ -141,6 +141,9 @@ pub struct AdFftReport {
     /// [`TRIANGLES_PER_AREA_CELL`]).
     #[serde(default)]
     pub estimated_triangles: u64,
+    /// The extracted surface's pull onto its samples ([`super::fit`]).
+    #[serde(default)]
+    pub fit: super::fit::FitReport,
     /// Self-intersections where blended leaves folded the surface, and their repair.
     #[serde(default)]
     pub self_intersections: super::self_intersect::RepairReport,
@@ -179,6 +182,23 @@ impl AdFftReport {
                 "depth {} asked; built at depth {}, where the surface's cells hold {:.2} samples each: the samples \
                  carry no finer detail (--samples-per-cell 0 keeps depth {})",
                 self.depth_asked, self.depth, self.samples_per_cell, self.depth_asked
+            )
+        })
+    }
+}
+
+impl AdFftReport {
+    /// What to tell the user when many vertices were further from their samples' plane than the fit
+    /// may move them ([`super::fit`], half a cell): over 5 % of those moved says the indicator's
+    /// surface and the samples disagree — normals turned the wrong way, or scans out of alignment.
+    /// `None` otherwise (the bunny at depth 9: 0.3 %).
+    pub fn far_from_samples(&self) -> Option<String> {
+        let f = &self.fit;
+        (f.moved > 0 && f.limited as Real > 0.05 * f.moved as Real).then(|| {
+            format!(
+                "{:.1} % of the vertices were more than half a cell ({:.3}) from their samples' plane and moved only                  that far: the surface and the samples disagree there (normals turned the wrong way, or scans out of                  alignment?)",
+                100.0 * f.limited as Real / f.moved as Real,
+                0.5 * self.cell
             )
         })
     }
@@ -708,7 +728,7 @@ pub fn reconstruct_adfft_counting<'a>(
     // The sweep freed its leaves a plane at a time, in small blocks the allocator keeps resident;
     // handed back, the clean-up's peak starts from the mesh, not from the sweep's high-water mark.
     crate::pipeline::memory::release_freed();
-    Ok(clean(mesh, &samples.tree, params, report, t))
+    Ok(clean(mesh, &samples, params, report, t))
 }
 
 /// A sweep to be done in slabs of cube layers, on other machines say ([`reconstruct_adfft_slabs`]):
@@ -768,7 +788,7 @@ pub fn reconstruct_adfft_slabs<'a>(
     let mesh = join_slabs(meshes, &frame, &boundaries[..boundaries.len() - 1]);
     drop(job);
     let Plan { samples, report, .. } = plan;
-    Ok(clean(mesh, &samples.tree, params, report, t))
+    Ok(clean(mesh, &samples, params, report, t))
 }
 
 /// Cube layers 0..n − 1 cut into `slabs` runs of about equal blending work: each plane costs its n²
@@ -1131,17 +1151,21 @@ fn extract(
     (mesh, peak)
 }
 
-/// The clean-up of the swept mesh: components too small or away from the data dropped, folds where
-/// blended leaves crossed repaired; the report completed (`t`: when the sweep began).
+/// The clean-up of the swept mesh: components too small or away from the data dropped, the rest
+/// drawn onto the samples, folds where blended leaves crossed (or the pull made) repaired; the report
+/// completed (`t`: when the sweep began).
 fn clean(
     mut mesh: TriMesh,
-    tree: &PointTree,
+    samples: &Samples,
     params: &AdFftParams,
     mut report: AdFftReport,
     t: Instant,
 ) -> (TriMesh, AdFftReport) {
     report.components_pruned = prune_small_components(&mut mesh, params.min_component)
-        + super::prune::prune_components_away_from(&mut mesh, tree, 4.0 * report.cell);
+        + super::prune::prune_components_away_from(&mut mesh, &samples.tree, 4.0 * report.cell);
+    let area: Real = samples.weights.iter().sum();
+    let radius = super::fit::radius(samples.positions.len(), area, report.cell);
+    report.fit = super::fit::fit_to_samples(&mut mesh, samples.positions, samples.normals, radius, 0.5 * report.cell);
     report.self_intersections = super::self_intersect::repair(&mut mesh, 8);
     report.seconds_extract = t.elapsed().as_secs_f64();
     report.vertices = mesh.vertices.len();
@@ -1186,6 +1210,17 @@ mod tests {
         );
         let r = AdFftReport { depth_asked: 9, depth: 9, ..Default::default() };
         assert_eq!(r.shallower_than_asked(), None);
+    }
+
+    /// A fit that had to stop many vertices at its limit is said; one that moved few that far is not.
+    #[test]
+    fn a_fit_held_at_its_limit_is_said() {
+        let fit = |moved, limited| super::super::fit::FitReport { moved, limited, ..Default::default() };
+        let r = AdFftReport { cell: 0.5, fit: fit(1000, 200), ..Default::default() };
+        let why = r.far_from_samples().unwrap();
+        assert!(why.contains("20.0 %") && why.contains("(0.250)"), "{why}");
+        assert_eq!(AdFftReport { fit: fit(1000, 3), ..r.clone() }.far_from_samples(), None);
+        assert_eq!(AdFftReport { fit: fit(0, 0), ..r }.far_from_samples(), None);
     }
 
     /// The level along a row is the level at each of its points.

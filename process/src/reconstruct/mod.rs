@@ -8,6 +8,7 @@ pub mod adfft;
 pub mod base;
 pub mod closing;
 pub mod fft3;
+pub mod fit;
 pub mod global_fft;
 pub mod marching_cubes;
 /// The accuracy metric, kept here under its old path.

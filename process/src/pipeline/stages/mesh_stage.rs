@@ -463,5 +463,10 @@ pub fn mesh_counting<'a>(
             a.self_intersections.remaining
         ));
     }
+    if let ReconstructReport::Adfft(a) = &reconstructed
+        && let Some(why) = a.far_from_samples()
+    {
+        warnings.push(why);
+    }
     Ok(MeshMade { mesh, output, report: MeshReport { reconstruct: reconstructed, finish }, warnings })
 }
