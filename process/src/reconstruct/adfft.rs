@@ -196,7 +196,9 @@ impl AdFftReport {
         let f = &self.fit;
         (f.moved > 0 && f.limited as Real > 0.05 * f.moved as Real).then(|| {
             format!(
-                "{:.1} % of the vertices were more than half a cell ({:.3}) from their samples' plane and moved only                  that far: the surface and the samples disagree there (normals turned the wrong way, or scans out of                  alignment?)",
+                "{:.1} % of the vertices were more than half a cell ({:.3}) from their samples' plane and moved only \
+                 that far: the surface and the samples disagree there (normals turned the wrong way, or scans out of \
+                 alignment?)",
                 100.0 * f.limited as Real / f.moved as Real,
                 0.5 * self.cell
             )
@@ -1218,7 +1220,7 @@ mod tests {
         let fit = |moved, limited| super::super::fit::FitReport { moved, limited, ..Default::default() };
         let r = AdFftReport { cell: 0.5, fit: fit(1000, 200), ..Default::default() };
         let why = r.far_from_samples().unwrap();
-        assert!(why.contains("20.0 %") && why.contains("(0.250)"), "{why}");
+        assert!(why.contains("20.0 %") && why.contains("(0.250)") && !why.contains("  "), "{why}");
         assert_eq!(AdFftReport { fit: fit(1000, 3), ..r.clone() }.far_from_samples(), None);
         assert_eq!(AdFftReport { fit: fit(0, 0), ..r }.far_from_samples(), None);
     }

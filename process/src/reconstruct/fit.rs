@@ -34,7 +34,8 @@ const MIN_COSINE: Real = 0.5;
 pub struct FitReport {
     /// The neighbourhood's radius.
     pub radius: Real,
-    /// Vertices moved (the rest had fewer than 3 samples facing their way within the radius).
+    /// Vertices moved. The rest had fewer than 3 samples facing their way within the radius (or
+    /// their samples' normals cancelled), or a move that would have turned a face over.
     pub moved: usize,
     /// Of those, moves cut to the limit (half a cell).
     pub limited: usize,
@@ -67,9 +68,13 @@ pub fn fit_to_samples(
     radius: Real,
     max_move: Real,
 ) -> FitReport {
+    // A radius or limit that is not a positive number moves nothing (and `clamp` would panic on it).
+    if !(radius > 0.0 && radius.is_finite() && max_move >= 0.0 && max_move.is_finite()) {
+        return FitReport { radius, ..Default::default() };
+    }
     let vertex_normals = mesh.vertex_normals();
     let grid = SampleGrid::new(positions, normals, radius);
-    // Vertices in one cell of the grid (the radius's edge) share their candidates: the samples of the
+    // Vertices in one cell of the grid (the radius's edge, or more on a vast cloud) share their candidates: the samples of the
     // 3³ cells about it, a few contiguous runs of the sorted samples. A k-d tree search per vertex had
     // been 0.7 s of the bunny's 7 at depth 9; the fit is now about 0.4 s, most of it the 86 M
     // candidate weights.
@@ -123,7 +128,9 @@ pub fn fit_to_samples(
 /// faces that had been.
 fn keep_faces_facing(mesh: &TriMesh, moves: &mut [Option<Vector3>]) -> usize {
     let mut turned_total = 0;
-    for _ in 0..4 {
+    // Each pass drops at least one move, so this ends; dropping one face's moves can turn its
+    // neighbour, hence the passes.
+    loop {
         let turned: Vec<usize> = mesh
             .faces
             .par_iter()
@@ -243,7 +250,7 @@ struct Near {
 impl Near {
     /// The move of the vertex at `v` (normal `nv`) onto the plane of the candidates within `radius`
     /// that face its way: `None` with fewer than three. The weight is (1 − d²/r²)², Wendland's
-    /// compact one: no call to exp, and zero at the radius. Computed branch-free in lanes of four
+    /// compact one: no call to exp, and zero at the radius. Computed branch-free in lanes of eight
     /// with an accumulator per lane, so the loop runs in vector registers: whether a candidate is
     /// within the radius is not predictable, and the branch had been most of the fit's time.
     fn plane_move(&self, v: &Point3, nv: &Vector3, radius: Real, max_move: Real) -> Option<Vector3> {
@@ -353,5 +360,12 @@ mod tests {
         let before = flipped.vertices.clone();
         let report = fit_to_samples(&mut flipped, &positions, &normals, r, 0.5);
         assert_eq!((report.moved, flipped.vertices == before), (0, true), "{report:?}");
+
+        // A limit or radius that is not a positive number moves nothing, and does not panic.
+        for (r, limit) in [(r, Real::NAN), (r, -0.1), (Real::NAN, 0.5), (0.0, 0.5)] {
+            let mut m = mesh.clone();
+            assert_eq!(fit_to_samples(&mut m, &positions, &normals, r, limit).moved, 0);
+            assert_eq!(m.vertices, mesh.vertices);
+        }
     }
 }

@@ -170,9 +170,9 @@ pub fn intersecting_pairs_with(mesh: &TriMesh, marked: &[u32]) -> Vec<(u32, u32)
         let at = |p: &Point3| std::array::from_fn(|d| (p[d] / cell).floor().clamp(-1e15, 1e15) as i64);
         (at(&b.0), at(&b.1))
     };
-    let cells_in =
-        |(lo, hi): &([i64; 3], [i64; 3])| (0..3).map(|d| (hi[d] - lo[d] + 1).max(0) as u128).product::<u128>();
-    const MAX_CELLS: u128 = 64;
+    // Counted in floating point: three axes of up to 2·10¹⁵ cells each overflow any integer.
+    let cells_in = |(lo, hi): &([i64; 3], [i64; 3])| (0..3).map(|d| (hi[d] - lo[d] + 1).max(0) as f64).product::<f64>();
+    const MAX_CELLS: f64 = 64.0;
     let mut grid: HashMap<[i64; 3], Vec<u32>> = HashMap::new();
     let mut wide: Vec<u32> = Vec::new();
     for (f, b) in &marked_boxes {
