@@ -185,9 +185,7 @@ impl AdFftReport {
             )
         })
     }
-}
 
-impl AdFftReport {
     /// What to tell the user when many vertices were further from their samples' plane than the fit
     /// may move them ([`super::fit`], half a cell): over 5 % of those moved says the indicator's
     /// surface and the samples disagree — normals turned the wrong way, or scans out of alignment.

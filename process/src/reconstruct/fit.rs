@@ -22,8 +22,8 @@ use serde::{Deserialize, Serialize};
 /// Samples a vertex's neighbourhood holds on average: the radius is chosen to hold this many, so the
 /// fitted plane averages the scans' noise whatever their density. On the bunny (362,272 samples over
 /// 61,658 mm², 1.47 mm) 40 gave a chamfer of 0.0416 mm at depth 8 and 0.0439 at depth 9 (25: 0.0439
-/// and 0.0475 in a first try; 100 less still, but a plane through a hundred samples flattens the detail a scan of
-/// coarser sampling shows).
+/// and 0.0475 in a first try; 100 less still, but a plane through a hundred samples flattens the
+/// detail a scan of coarser sampling shows).
 pub const SAMPLES_PER_NEIGHBOURHOOD: Real = 40.0;
 
 /// A sample counts for a vertex when its normal is within 60° of the vertex's.
@@ -58,8 +58,8 @@ pub fn radius(points: usize, area: Real, cell: Real) -> Real {
 
 /// Moves each vertex of `mesh` onto the weighted plane of the oriented samples within `radius` (each
 /// weighted by (1 − d²/r²)², Wendland's compact weight), by at most `max_move`. The samples count
-/// alike, not by their area weights: where ten scans overlap, each scan's noise and misalignment averages
-/// out only if the overlap's many small-area samples weigh as much as one scan's few (weighted by
+/// alike, not by their area weights: where ten scans overlap, each scan's noise and misalignment
+/// averages out only if the overlap's many small-area samples weigh as much as one scan's few (weighted by
 /// area, the bunny's chamfer at depth 8 was 0.0433 mm; alike, 0.0418).
 pub fn fit_to_samples(
     mesh: &mut TriMesh,
@@ -74,10 +74,10 @@ pub fn fit_to_samples(
     }
     let vertex_normals = mesh.vertex_normals();
     let grid = SampleGrid::new(positions, normals, radius);
-    // Vertices in one cell of the grid (the radius's edge, or more on a vast cloud) share their candidates: the samples of the
-    // 3³ cells about it, a few contiguous runs of the sorted samples. A k-d tree search per vertex had
-    // been 0.7 s of the bunny's 7 at depth 9; the fit is now about 0.4 s, most of it the 86 M
-    // candidate weights.
+    // Vertices in one cell of the grid (the radius's edge, or more on a vast cloud) share their
+    // candidates: the samples of the 3³ cells about it, a few contiguous runs of the sorted samples.
+    // A k-d tree search per vertex had been 0.7 s of the bunny's 7 at depth 9; the fit is now about
+    // 0.4 s, most of it the 86 M candidate weights.
     let mut order: Vec<(u64, u32)> =
         mesh.vertices.par_iter().enumerate().filter_map(|(i, p)| grid.key(p).map(|k| (k, i as u32))).collect();
     order.par_sort_unstable();
