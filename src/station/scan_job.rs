@@ -13,8 +13,9 @@ use anyhow::{Context, Result, bail};
 use process::pipeline::layout::Layout;
 use process::{ProcessParams, Stage};
 use serde_json::{Value, json};
+use std::collections::VecDeque;
 use std::path::Path;
-use std::sync::mpsc::channel;
+use std::sync::mpsc::{Receiver, TryRecvError, channel};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
@@ -89,24 +90,24 @@ pub fn run(st: &Arc<Station>, project: &str, views: usize) -> Result<()> {
     };
 
     // Each view, once on disk, goes to the live worker: decoded, triangulated and sent while the
-    // next one is captured.
+    // next one is captured. A resumed scan's views so far are shown again too (no capture time:
+    // they are not live), but only while no new view waits: each is hashed and read again, and a
+    // view captured behind six of them would reach the page seconds late.
+    let replay: Vec<usize> = match resume.then(|| rig::Manifest::read(&dir)) {
+        Some(Ok(m)) => (0..m.views.len()).filter(|&v| m.views[v].complete).collect(),
+        _ => Vec::new(),
+    };
     let (views_tx, views_rx) = channel::<(usize, f64)>();
     let live = {
         let (st, dir, rig) = (st.clone(), dir.clone(), rig.clone());
         std::thread::spawn(move || {
-            for (view, captured) in views_rx {
+            for (view, captured) in live_first(views_rx, replay) {
                 if let Err(e) = show_view(&st, &dir, &rig, view, captured) {
                     st.bus.send("view-failed", json!({"view": view, "message": format!("{e:#}")}));
                 }
             }
         })
     };
-    // A resumed scan's views so far, shown again (no capture time: they are not live).
-    if resume && let Ok(m) = rig::Manifest::read(&dir) {
-        for v in (0..m.views.len()).filter(|&v| m.views[v].complete) {
-            let _ = views_tx.send((v, f64::NAN));
-        }
-    }
     let started_at = std::time::Instant::now();
     let bus = &st.bus;
     let result = {
@@ -158,6 +159,18 @@ pub fn run(st: &Arc<Station>, project: &str, views: usize) -> Result<()> {
     }
 }
 
+/// The views to show in turn: each newly captured one (with its capture time) as soon as it is
+/// sent, and the `replay` views (capture time NaN) only while none waits; ends when the sender is
+/// dropped and the replays are done.
+fn live_first(live: Receiver<(usize, f64)>, replay: Vec<usize>) -> impl Iterator<Item = (usize, f64)> {
+    let mut replay = VecDeque::from(replay);
+    std::iter::from_fn(move || match live.try_recv() {
+        Ok(next) => Some(next),
+        Err(TryRecvError::Empty) => replay.pop_front().map(|v| (v, f64::NAN)).or_else(|| live.recv().ok()),
+        Err(TryRecvError::Disconnected) => replay.pop_front().map(|v| (v, f64::NAN)),
+    })
+}
+
 /// Decodes and triangulates `view` of the scan in `dir` (the pipeline's view stages, that view
 /// only, into `dir/processed` where `process` reuses them) and sends its points, in the object's
 /// frame, with its badge.
@@ -207,4 +220,23 @@ fn show_view(st: &Station, dir: &Path, rig: &rig::Rig, view: usize, captured_ms:
         }),
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_captured_view_is_shown_before_the_resumed_ones_left_to_show_again() {
+        let (tx, rx) = channel();
+        tx.send((6, 1.0)).unwrap();
+        let mut order = live_first(rx, vec![0, 1, 2]);
+        assert_eq!(order.next(), Some((6, 1.0)), "the view waiting goes first");
+        assert_eq!(order.next().map(|(v, t)| (v, t.is_nan())), Some((0, true)));
+        tx.send((7, 2.0)).unwrap();
+        assert_eq!(order.next(), Some((7, 2.0)), "a view captured during the replay jumps it");
+        drop(tx);
+        let rest: Vec<usize> = order.map(|(v, _)| v).collect();
+        assert_eq!(rest, [1, 2], "the replay finishes after the last capture");
+    }
 }
