@@ -1,5 +1,6 @@
 //! A floating-point grey image: what corner detection and sub-pixel refinement work on.
 
+use rayon::prelude::*;
 use rig::image::Image8;
 
 /// Grey values in `[0, 1]`, row-major.
@@ -41,34 +42,101 @@ impl Gray {
         a * (1.0 - fy) + b * fy
     }
 
-    /// Separable Gaussian blur with standard deviation `sigma` pixels.
+    /// Separable Gaussian blur with standard deviation `sigma` pixels, clamped to the border.
+    ///
+    /// Each pass adds the kernel's taps to a whole row at once, tap by tap, so every pixel sums its
+    /// taps in the kernel's order, as a loop over pixels would, and the row loop runs in vector
+    /// registers; rows go to all cores. Reading each tap through the clamping [`Gray::at`] had been
+    /// half of the FabScanPi sweep's calibration time (100 frames of 1232 × 1640).
     pub fn blur(&self, sigma: f64) -> Gray {
+        let r = (3.0 * sigma).ceil().max(1.0) as usize;
+        let kernel: Vec<f32> =
+            (-(r as isize)..=r as isize).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32).collect();
+        let norm: f32 = kernel.iter().sum();
+        let kernel: Vec<f32> = kernel.iter().map(|k| k / norm).collect();
+        let (w, h) = (self.width, self.height);
+        if w == 0 || h == 0 || self.data.len() != w * h {
+            return Gray { width: w, height: h, data: vec![0.0; self.data.len()] };
+        }
+        // Along rows: each row padded with `r` copies of its end values, as `at` clamps.
+        let mut tmp = vec![0f32; w * h];
+        tmp.par_chunks_mut(w).zip(self.data.par_chunks(w)).for_each_init(
+            || Vec::with_capacity(w + 2 * r),
+            |padded: &mut Vec<f32>, (out, row)| {
+                padded.clear();
+                padded.extend(std::iter::repeat_n(row[0], r));
+                padded.extend_from_slice(row);
+                padded.extend(std::iter::repeat_n(row[w - 1], r));
+                for (k, &kv) in kernel.iter().enumerate() {
+                    for (o, &v) in out.iter_mut().zip(&padded[k..k + w]) {
+                        *o += kv * v;
+                    }
+                }
+            },
+        );
+        // Along columns: output row y adds the rows y − r … y + r, clamped to the image.
+        let mut out = vec![0f32; w * h];
+        out.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
+            for (k, &kv) in kernel.iter().enumerate() {
+                let from = (y + k).saturating_sub(r).min(h - 1);
+                for (o, &v) in out.iter_mut().zip(&tmp[from * w..(from + 1) * w]) {
+                    *o += kv * v;
+                }
+            }
+        });
+        Gray { width: w, height: h, data: out }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The blur as defined: each tap read through the clamping `at`, summed in the kernel's order.
+    fn blur_by_taps(img: &Gray, sigma: f64) -> Gray {
         let r = (3.0 * sigma).ceil().max(1.0) as isize;
         let kernel: Vec<f32> = (-r..=r).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32).collect();
         let norm: f32 = kernel.iter().sum();
         let kernel: Vec<f32> = kernel.iter().map(|k| k / norm).collect();
-        let (w, h) = (self.width, self.height);
-        let mut tmp = vec![0f32; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let mut s = 0.0;
-                for (k, &kv) in kernel.iter().enumerate() {
-                    s += kv * self.at(x as isize + k as isize - r, y as isize);
+        let (w, h) = (img.width, img.height);
+        let pass = |src: &Gray, along_rows: bool| {
+            let mut out = vec![0f32; w * h];
+            for y in 0..h {
+                for x in 0..w {
+                    let mut s = 0.0;
+                    for (k, &kv) in kernel.iter().enumerate() {
+                        let o = k as isize - r;
+                        s += kv
+                            * if along_rows {
+                                src.at(x as isize + o, y as isize)
+                            } else {
+                                src.at(x as isize, y as isize + o)
+                            };
+                    }
+                    out[y * w + x] = s;
                 }
-                tmp[y * w + x] = s;
             }
+            Gray { width: w, height: h, data: out }
+        };
+        pass(&pass(img, true), false)
+    }
+
+    /// The row-at-a-time blur gives the same bits as the tap-by-tap definition, on images smaller
+    /// than the kernel too, and an empty image stays empty.
+    #[test]
+    fn the_blur_equals_its_tap_by_tap_definition() {
+        let mut state = 12345u64;
+        for (w, h, sigma) in [(37, 23, 0.7), (64, 48, 2.5), (3, 2, 2.5), (1, 9, 1.0), (50, 1, 0.4)] {
+            let data = (0..w * h)
+                .map(|_| {
+                    state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    (state >> 40) as f32 / (1u64 << 24) as f32
+                })
+                .collect();
+            let img = Gray { width: w, height: h, data };
+            assert_eq!(img.blur(sigma).data, blur_by_taps(&img, sigma).data, "{w} × {h}, σ {sigma}");
         }
-        let src = Gray { width: w, height: h, data: tmp };
-        let mut out = vec![0f32; w * h];
-        for y in 0..h {
-            for x in 0..w {
-                let mut s = 0.0;
-                for (k, &kv) in kernel.iter().enumerate() {
-                    s += kv * src.at(x as isize, y as isize + k as isize - r);
-                }
-                out[y * w + x] = s;
-            }
-        }
-        Gray { width: w, height: h, data: out }
+        let empty = Gray { width: 0, height: 5, data: Vec::new() };
+        assert!(empty.blur(1.0).data.is_empty());
     }
 }
