@@ -56,10 +56,39 @@ def main():
         browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         try:
             run(browser, args, summary)
+        except Exception:
+            print_page(summary.pop("page", None), summary)
+            raise
         finally:
             browser.close()
+    summary.pop("page", None)
     json.dump(summary, sys.stdout, indent=1)
     print()
+
+
+def print_page(page, summary):
+    """What the operator's page showed when a step failed, to stderr: the scan's and the process's
+    status, the messages, the badges, the live log's end and the station's state. A timeout alone
+    says which wait ran out, not why (CI's log is all there is to go on)."""
+    if page is not None:
+        try:
+            shown = page.evaluate("""async () => {
+                const text = (id) => { const e = document.getElementById(id); return e ? e.textContent : null; };
+                const scan = document.getElementById('scan-status');
+                return {
+                    scan: (scan ? scan.dataset.state : null) + ': ' + text('scan-status'),
+                    process: text('process-status'),
+                    messages: text('messages'),
+                    badges: [...document.querySelectorAll('#badges .badge')].map(b => b.textContent),
+                    live_log_end: (text('live-log') || '').slice(-3000),
+                    station: await fetch('/api/state').then(r => r.json()).catch(e => String(e)),
+                };
+            }""")
+            print("operator_run: the page when the step failed: " + json.dumps(shown, indent=1), file=sys.stderr)
+        except Exception as e:  # the page itself may be what failed
+            print(f"operator_run: the page could not be read when the step failed: {e}", file=sys.stderr)
+    if summary["errors"]:
+        print("operator_run: errors seen before: " + json.dumps(summary["errors"], indent=1), file=sys.stderr)
 
 
 def watch(page, name, summary):
@@ -96,6 +125,7 @@ def idle(page):
 
 def run(browser, args, summary):
     operator = browser.new_context(viewport={"width": 1280, "height": 900}).new_page()
+    summary["page"] = operator  # for print_page, not the summary's output
     watch(operator, "operator", summary)
     operator.goto(args.url)
     operator.wait_for_selector("body[data-ready=yes]")
