@@ -41,10 +41,10 @@ impl NpyArray {
 
 /// The bytes of a `.npy` file.
 pub fn to_bytes(a: &NpyArray) -> Vec<u8> {
-    let (descr, body): (&str, Vec<u8>) = match &a.data {
-        NpyData::F64(v) => ("<f8", v.iter().flat_map(|x| x.to_le_bytes()).collect()),
-        NpyData::F32(v) => ("<f4", v.iter().flat_map(|x| x.to_le_bytes()).collect()),
-        NpyData::U8(v) => ("|u1", v.clone()),
+    let descr = match &a.data {
+        NpyData::F64(_) => "<f8",
+        NpyData::F32(_) => "<f4",
+        NpyData::U8(_) => "|u1",
     };
     let shape = match a.shape.len() {
         1 => format!("({},)", a.shape[0]),
@@ -58,7 +58,18 @@ pub fn to_bytes(a: &NpyArray) -> Vec<u8> {
     let mut out = b"\x93NUMPY\x01\x00".to_vec();
     out.extend_from_slice(&(header.len() as u16).to_le_bytes());
     out.extend_from_slice(header.as_bytes());
-    out.extend_from_slice(&body);
+    // Straight into the output (a simulated view's truth is tens of MB a view): no body built apart.
+    match &a.data {
+        NpyData::F64(v) => {
+            out.reserve(8 * v.len());
+            v.iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
+        }
+        NpyData::F32(v) => {
+            out.reserve(4 * v.len());
+            v.iter().for_each(|x| out.extend_from_slice(&x.to_le_bytes()));
+        }
+        NpyData::U8(v) => out.extend_from_slice(v),
+    }
     out
 }
 
