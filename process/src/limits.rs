@@ -22,6 +22,8 @@
 //! | `--spacing` | > 0, finite; against the mesh: 1/[`MAX_SPACING_RATIO`](crate::remesh::quad_remesh::MAX_SPACING_RATIO) of the default up to half the diagonal | |
 //! | `--features` | [0, 180] degrees | |
 //! | `--weight` | > 0, finite | |
+//! | `padding` (library, Python's distributed jobs) | [0, 1] of the cube's edge | below 0 the cube cuts samples off; past 1 the grid is mostly empty |
+//! | AdFFT's `scale`, `coarse_weight`, `test_fraction`, `min_points`, `min_component`, `smoothing_cells`, `test_depth`, `coarse_depth` (library) | see [`check_adfft_fields`] | a NaN or a support smaller than its cell went on into the grid unchecked, far from where the value was set |
 
 use crate::denoise::Similarity;
 use crate::merge::CropParams;
@@ -167,6 +169,7 @@ impl ReconstructParams {
                         "must be a positive number of cells up to 64",
                     ));
                 }
+                check_padding(p.padding)?;
                 budget(p.memory_budget)
             }
             ReconstructParams::Adfft(p) => {
@@ -192,6 +195,7 @@ impl ReconstructParams {
                         format!("must be a number from 0 (keep --depth) to {MAX_SAMPLES_PER_CELL}"),
                     ));
                 }
+                check_adfft_fields(p)?;
                 budget(p.memory_budget)
             }
         }
@@ -236,6 +240,41 @@ impl crate::ProcessParams {
         self.finish.validate()?;
         self.remesh.validate()
     }
+}
+
+/// The reconstruction's bounding-cube margin: a fraction of the cube's edge on each side.
+pub(crate) fn check_padding(padding: Real) -> Result<(), ParamError> {
+    if (0.0..=1.0).contains(&padding) {
+        Ok(())
+    } else {
+        Err(bad("padding", padding, "must be a fraction of the bounding cube's edge from 0 to 1"))
+    }
+}
+
+/// AdFFT's settings that no option sets but the library, Python's distributed jobs and the
+/// benches can: each a number in the range its meaning allows, so a NaN or a support smaller than
+/// its cell is refused by name before the octree instead of going on into the grid unchecked. [`reconstruct_adfft`](crate::reconstruct::adfft::reconstruct_adfft) checks them
+/// itself too, as it checks its depth.
+pub fn check_adfft_fields(p: &crate::reconstruct::adfft::AdFftParams) -> Result<(), ParamError> {
+    check_padding(p.padding)?;
+    let within = |field: &'static str, x: Real, lo: Real, hi: Real, why: &str| {
+        if (lo..=hi).contains(&x) { Ok(()) } else { Err(bad(field, x, format!("must be from {lo} to {hi}: {why}"))) }
+    };
+    within("scale", p.scale, 1.0, 4.0, "a leaf's support must cover its cell (the thesis's c is 1.8)")?;
+    within("coarse_weight", p.coarse_weight, 0.0, 1.0, "a leaf weighs 1 at its centre")?;
+    within("smoothing_cells", p.smoothing_cells, 0.0, 64.0, "the low-pass's standard deviation in cells")?;
+    within("min_points", p.min_points, 0.0, 0.25, "a fraction of all points")?;
+    within("min_component", p.min_component, 0.0, 1.0, "a fraction of the largest component's area")?;
+    if !(p.test_fraction > 0.0 && p.test_fraction <= 1.0) {
+        return Err(bad("test_fraction", p.test_fraction, "must be a fraction above 0 and at most 1"));
+    }
+    if !(3..=7).contains(&p.test_depth) {
+        return Err(bad("test_depth", p.test_depth, "must be from 3 to 7 (the subdivision test's local grid)"));
+    }
+    if !(2..=8).contains(&p.coarse_depth) {
+        return Err(bad("coarse_depth", p.coarse_depth, "must be from 2 to 8 (the coarse χ's grid)"));
+    }
+    Ok(())
 }
 
 fn budget(bytes: u64) -> Result<(), ParamError> {
@@ -314,6 +353,21 @@ mod tests {
         let r = crate::reconstruct::global_fft::FftParams { depth: 30, ..Default::default() };
         let e = ReconstructParams::Fft(r).validate().unwrap_err();
         assert!(e.option == "--depth" && e.to_string().contains("30"), "{e}");
+        // The library's own fields, which no option sets, by their names.
+        let ad = crate::reconstruct::adfft::AdFftParams::default();
+        for (bad_one, field) in [
+            (crate::reconstruct::adfft::AdFftParams { padding: Real::NAN, ..ad }, "padding"),
+            (crate::reconstruct::adfft::AdFftParams { padding: -0.1, ..ad }, "padding"),
+            (crate::reconstruct::adfft::AdFftParams { scale: 0.5, ..ad }, "scale"),
+            (crate::reconstruct::adfft::AdFftParams { coarse_weight: Real::INFINITY, ..ad }, "coarse_weight"),
+            (crate::reconstruct::adfft::AdFftParams { test_fraction: 0.0, ..ad }, "test_fraction"),
+            (crate::reconstruct::adfft::AdFftParams { min_component: Real::NAN, ..ad }, "min_component"),
+            (crate::reconstruct::adfft::AdFftParams { coarse_depth: 30, ..ad }, "coarse_depth"),
+        ] {
+            assert_eq!(ReconstructParams::Adfft(bad_one).validate().unwrap_err().option, field);
+        }
+        let r = crate::reconstruct::global_fft::FftParams { padding: 2.0, ..Default::default() };
+        assert_eq!(ReconstructParams::Fft(r).validate().unwrap_err().option, "padding");
         let finish = FinishParams { trim: Some(-1.0), ..Default::default() };
         assert_eq!(finish.validate().unwrap_err().option, "--trim");
         let remesh = RemeshParams { spacing: Some(Real::INFINITY), ..Default::default() };

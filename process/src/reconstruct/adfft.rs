@@ -247,10 +247,19 @@ pub struct LeafGrid {
 
 impl LeafGrid {
     /// Whether the grid can be swept (one sent from elsewhere, say): 4 to 4096 points per axis at a
-    /// positive spacing, the layers within it. Says what is wrong.
+    /// positive spacing, a support scale of 1 to 4 and smoothing of 0 to 64 cells, the layers within
+    /// it. Says what is wrong.
     pub fn check(&self, layers: &[Range<usize>]) -> Result<(), String> {
         if !((4..=1 << 12).contains(&self.n) && self.h > 0.0 && self.h.is_finite()) {
             return Err(format!("grid of {} points per axis at spacing {}", self.n, self.h));
+        }
+        // The same ranges as the library's own entry ([`crate::limits::check_adfft_fields`]): these
+        // come from a job handed between machines.
+        if !((1.0..=4.0).contains(&self.scale) && (0.0..=64.0).contains(&self.smoothing_cells)) {
+            return Err(format!(
+                "support scale {} or smoothing of {} cells out of range",
+                self.scale, self.smoothing_cells
+            ));
         }
         match layers.iter().find(|l| l.is_empty() || l.end > self.n - 1) {
             Some(l) => Err(format!("layers {l:?} outside the grid's 0..{}", self.n - 1)),
@@ -931,6 +940,8 @@ fn plan<'a>(cloud: rig::CloudRef<'a>, params: &AdFftParams) -> Result<Plan<'a>, 
             params.depth, params.test_depth
         )));
     }
+    // The fields no option sets (the depth above goes to 12 here, for the memory estimate's benches).
+    crate::limits::check_adfft_fields(params).map_err(|e| ReconstructError::Params(e.to_string()))?;
     if !(params.samples_per_cell >= 0.0 && params.samples_per_cell.is_finite()) {
         return Err(ReconstructError::Params(format!(
             "AdFFT's samples per cell must be a number ≥ 0, got {}",
@@ -1194,6 +1205,23 @@ mod tests {
             reconstruct_adfft_counting(&cloud, &AdFftParams { depth: 7, ..Default::default() }, &planes).unwrap();
         assert_eq!(planes.load(Ordering::Relaxed), 128);
         assert_eq!(counted, mesh);
+    }
+
+    /// The library's entry refuses a field no option sets, by name, before any work: a NaN margin
+    /// went into the bounding cube's size unchecked.
+    #[test]
+    fn a_field_out_of_its_range_is_refused_by_name() {
+        let cloud = crate::reconstruct::global_fft::tests::sphere(2_000, 40.0);
+        for (p, field) in [
+            (AdFftParams { depth: 6, padding: Real::NAN, ..Default::default() }, "padding"),
+            (AdFftParams { depth: 6, scale: 0.9, ..Default::default() }, "scale"),
+        ] {
+            let e = reconstruct_adfft(&cloud, &p).unwrap_err().to_string();
+            assert!(e.contains(field), "{e}");
+        }
+        let p = crate::reconstruct::global_fft::FftParams { depth: 5, padding: -1.0, ..Default::default() };
+        let e = crate::reconstruct::global_fft::reconstruct_fft(&cloud, &p).unwrap_err().to_string();
+        assert!(e.contains("padding"), "{e}");
     }
 
     /// A grid built shallower than asked says so, naming the depths and the option that keeps the

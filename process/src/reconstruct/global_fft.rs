@@ -485,6 +485,7 @@ pub fn reconstruct_fft_in<'a>(
     if !(2..=11).contains(&params.depth) {
         return Err(ReconstructError::Params(format!("depth must be 2–11, got {}", params.depth)));
     }
+    crate::limits::check_padding(params.padding).map_err(|e| ReconstructError::Params(e.to_string()))?;
     let need = grid_bytes(params.depth);
     let n = 1usize << params.depth;
     // AdFFT holds only the leaves near the surface: the way past this grid's size.
