@@ -23,7 +23,7 @@
 //! | `--features` | [0, 180] degrees | |
 //! | `--weight` | > 0, finite | |
 //! | `padding` (library, Python's distributed jobs) | [0, 1] of the cube's edge | below 0 the cube cuts samples off; past 1 the grid is mostly empty |
-//! | AdFFT's `scale`, `coarse_weight`, `test_fraction`, `min_points`, `min_component`, `smoothing_cells`, `test_depth`, `coarse_depth` (library) | see [`check_adfft_fields`] | a NaN or a support smaller than its cell went on into the grid unchecked, far from where the value was set |
+//! | AdFFT's `scale`, `coarse_weight`, `test_fraction`, `min_points`, `min_component`, `smoothing_cells`, `test_depth`, `coarse_depth` (library) | see [`check_adfft_fields`](crate::limits::check_adfft_fields) | a NaN or a support smaller than its cell went on into the grid unchecked, far from where the value was set |
 
 use crate::denoise::Similarity;
 use crate::merge::CropParams;
