@@ -253,8 +253,9 @@ pub(crate) fn check_padding(padding: Real) -> Result<(), ParamError> {
 
 /// AdFFT's settings that no option sets but the library, Python's distributed jobs and the
 /// benches can: each a number in the range its meaning allows, so a NaN or a support smaller than
-/// its cell is refused by name before the octree instead of going on into the grid unchecked. [`reconstruct_adfft`](crate::reconstruct::adfft::reconstruct_adfft) checks them
-/// itself too, as it checks its depth.
+/// its cell is refused by name before the octree instead of going on into the grid unchecked.
+/// [`reconstruct_adfft`](crate::reconstruct::adfft::reconstruct_adfft) checks them itself too, as
+/// it checks its depth.
 pub fn check_adfft_fields(p: &crate::reconstruct::adfft::AdFftParams) -> Result<(), ParamError> {
     check_padding(p.padding)?;
     let within = |field: &'static str, x: Real, lo: Real, hi: Real, why: &str| {
