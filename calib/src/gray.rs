@@ -1,6 +1,5 @@
 //! A floating-point grey image: what corner detection and sub-pixel refinement work on.
 
-use rayon::prelude::*;
 use rig::image::Image8;
 
 /// Grey values in `[0, 1]`, row-major.
@@ -42,49 +41,17 @@ impl Gray {
         a * (1.0 - fy) + b * fy
     }
 
-    /// Separable Gaussian blur with standard deviation `sigma` pixels, clamped to the border.
-    ///
-    /// Each pass adds the kernel's taps to a whole row at once, tap by tap, so every pixel sums its
-    /// taps in the kernel's order, as a loop over pixels would, and the row loop runs in vector
-    /// registers; rows go to all cores. Reading each tap through the clamping [`Gray::at`] had been
-    /// half of the FabScanPi sweep's calibration time (100 frames of 1232 × 1640).
+    /// Separable Gaussian blur with standard deviation `sigma` pixels, clamped to the border
+    /// ([`rig::convolve::convolve_clamped`], which gives the bits of the tap-by-tap definition:
+    /// reading each tap through the clamping [`Gray::at`] had been half of the FabScanPi sweep's
+    /// calibration time, 100 frames of 1232 × 1640).
     pub fn blur(&self, sigma: f64) -> Gray {
-        let r = (3.0 * sigma).ceil().max(1.0) as usize;
-        let kernel: Vec<f32> =
-            (-(r as isize)..=r as isize).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32).collect();
+        let r = (3.0 * sigma).ceil().max(1.0) as isize;
+        let kernel: Vec<f32> = (-r..=r).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp() as f32).collect();
         let norm: f32 = kernel.iter().sum();
         let kernel: Vec<f32> = kernel.iter().map(|k| k / norm).collect();
-        let (w, h) = (self.width, self.height);
-        if w == 0 || h == 0 || self.data.len() != w * h {
-            return Gray { width: w, height: h, data: vec![0.0; self.data.len()] };
-        }
-        // Along rows: each row padded with `r` copies of its end values, as `at` clamps.
-        let mut tmp = vec![0f32; w * h];
-        tmp.par_chunks_mut(w).zip(self.data.par_chunks(w)).for_each_init(
-            || Vec::with_capacity(w + 2 * r),
-            |padded: &mut Vec<f32>, (out, row)| {
-                padded.clear();
-                padded.extend(std::iter::repeat_n(row[0], r));
-                padded.extend_from_slice(row);
-                padded.extend(std::iter::repeat_n(row[w - 1], r));
-                for (k, &kv) in kernel.iter().enumerate() {
-                    for (o, &v) in out.iter_mut().zip(&padded[k..k + w]) {
-                        *o += kv * v;
-                    }
-                }
-            },
-        );
-        // Along columns: output row y adds the rows y − r … y + r, clamped to the image.
-        let mut out = vec![0f32; w * h];
-        out.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
-            for (k, &kv) in kernel.iter().enumerate() {
-                let from = (y + k).saturating_sub(r).min(h - 1);
-                for (o, &v) in out.iter_mut().zip(&tmp[from * w..(from + 1) * w]) {
-                    *o += kv * v;
-                }
-            }
-        });
-        Gray { width: w, height: h, data: out }
+        let data = rig::convolve::convolve_clamped(&self.data, self.width, self.height, &kernel);
+        Gray { width: self.width, height: self.height, data }
     }
 }
 

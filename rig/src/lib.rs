@@ -85,6 +85,8 @@ pub use mesh::{FaceSizes, PolyMesh, TriMesh};
 /// Polygons other tools can read: ear clipping, convexity.
 pub mod polygon;
 
+/// Separable convolution with clamped edges (the Gaussian blurs).
+pub mod convolve;
 pub mod e57;
 pub mod glb;
 pub mod image;

@@ -97,49 +97,14 @@ fn specular(g: &ViewGeometry, cfg: &SimConfig, i: usize, source: &rig::math::Poi
     cfg.scene.specular * n.dot(&half).max(0.0).powf(cfg.scene.shininess)
 }
 
-/// A separable Gaussian blur of a single-channel image (lens blur), edges clamped.
-///
-/// Each output pixel is the sum over the taps in kernel order, `acc += k * src[clamped]` from zero, as
-/// the per-pixel definition reads; the taps are added to a whole row at a time (a tap's sources are one
-/// contiguous run of the row, or of the row it reads, once the clamped ends are set aside), so the
-/// bits are the same and the inner loop has no clamp or index arithmetic to slow it.
-fn blur(values: &mut [f32], w: usize, h: usize, sigma: Real) {
-    if w == 0 || h == 0 {
-        return;
-    }
+/// A separable Gaussian blur of a single-channel image (lens blur), edges clamped
+/// ([`rig::convolve::convolve_clamped`], which gives the bits of the per-pixel definition).
+fn blur(values: &[f32], w: usize, h: usize, sigma: Real) -> Vec<f32> {
     let r = (3.0 * sigma).ceil() as isize;
     let kernel: Vec<f32> = (-r..=r).map(|k| (-0.5 * (k as Real / sigma).powi(2)).exp() as f32).collect();
     let total: f32 = kernel.iter().sum();
     let kernel: Vec<f32> = kernel.iter().map(|k| k / total).collect();
-    let mut tmp = vec![0.0f32; values.len()];
-    // Along rows: tap offset d reads src[clamp(x + d)]: the row's first value left of `lo`, its last
-    // from `hi` on, and the row shifted by d between.
-    tmp.par_chunks_mut(w).zip(values.par_chunks(w)).for_each(|(out, src)| {
-        out.fill(0.0);
-        for (j, &k) in kernel.iter().enumerate() {
-            let d = j as isize - r;
-            let lo = (-d).clamp(0, w as isize) as usize;
-            let hi = (w as isize - d).clamp(lo as isize, w as isize) as usize;
-            let (first, last) = (src[0], src[w - 1]);
-            out[..lo].iter_mut().for_each(|o| *o += k * first);
-            if lo < hi {
-                let shifted = &src[(lo as isize + d) as usize..(hi as isize + d) as usize];
-                out[lo..hi].iter_mut().zip(shifted).for_each(|(o, &s)| *o += k * s);
-            }
-            out[hi..].iter_mut().for_each(|o| *o += k * last);
-        }
-    });
-    // Along columns: tap offset d reads row clamp(y + d) whole.
-    let src = &tmp;
-    values.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
-        out.fill(0.0);
-        for (j, &k) in kernel.iter().enumerate() {
-            let yy = (y as isize + j as isize - r).clamp(0, h as isize - 1) as usize;
-            for (o, &s) in out.iter_mut().zip(&src[yy * w..yy * w + w]) {
-                *o += k * s;
-            }
-        }
-    });
+    rig::convolve::convolve_clamped(values, w, h, &kernel)
 }
 
 /// Renders one frame. `key` is [`frame_key`] for the frame (it decides the noise). Grey unless the
@@ -188,12 +153,7 @@ pub fn render_frame(g: &ViewGeometry, cfg: &SimConfig, light: &PatternLight, key
     let nc = channels.len();
     let channels: Vec<Vec<f32>> = channels
         .into_iter()
-        .map(|mut ch| {
-            if fr.blur_px > 0.0 {
-                blur(&mut ch, g.width, g.height, fr.blur_px);
-            }
-            ch
-        })
+        .map(|ch| if fr.blur_px > 0.0 { blur(&ch, g.width, g.height, fr.blur_px) } else { ch })
         .collect();
     // Blocks of pixels, each pixel's channels side by side (no division per sample to find them).
     const BLOCK: usize = 4096;
@@ -248,8 +208,8 @@ mod tests {
         // Sizes narrower and shorter than the kernel included: every tap then reads a clamped end.
         for (w, h, sigma) in [(37, 23, 0.8), (64, 48, 2.5), (1, 5, 1.0), (5, 1, 1.0), (2, 3, 3.0), (3, 2, 0.3)] {
             let image: Vec<f32> = (0..w * h).map(|i| (normal(mix(i as u64)) * 40.0 + 100.0) as f32).collect();
-            let (mut fast, mut slow) = (image.clone(), image);
-            blur(&mut fast, w, h, sigma);
+            let fast = blur(&image, w, h, sigma);
+            let mut slow = image;
             blur_by_definition(&mut slow, w, h, sigma);
             let same = fast.iter().zip(&slow).all(|(a, b)| a.to_bits() == b.to_bits());
             assert!(same, "{w} x {h}, sigma {sigma}");
