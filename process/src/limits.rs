@@ -52,6 +52,11 @@ pub const MAX_SAMPLES_PER_CELL: Real = 1000.0;
 /// cell splits to the finest depth, above the largest none does.
 pub const ADFFT_ERROR_RANGE: (Real, Real) = (1e-7, 0.1);
 
+/// AdFFT's support scale (the thesis's c is 1.8): at least the cell itself.
+pub const ADFFT_SCALE: std::ops::RangeInclusive<Real> = 1.0..=4.0;
+/// AdFFT's low-pass, in cells (the global method's `--smoothing-cells` also stops at 64).
+pub const ADFFT_SMOOTHING_CELLS: std::ops::RangeInclusive<Real> = 0.0..=64.0;
+
 pub use rig::limits::ParamError;
 
 fn bad(option: &'static str, value: impl std::fmt::Display, why: impl Into<String>) -> ParamError {
@@ -261,9 +266,10 @@ pub fn check_adfft_fields(p: &crate::reconstruct::adfft::AdFftParams) -> Result<
     let within = |field: &'static str, x: Real, lo: Real, hi: Real, why: &str| {
         if (lo..=hi).contains(&x) { Ok(()) } else { Err(bad(field, x, format!("must be from {lo} to {hi}: {why}"))) }
     };
-    within("scale", p.scale, 1.0, 4.0, "a leaf's support must cover its cell (the thesis's c is 1.8)")?;
+    let (scale, smoothing) = (ADFFT_SCALE, ADFFT_SMOOTHING_CELLS);
+    within("scale", p.scale, *scale.start(), *scale.end(), "a leaf's support must cover its cell (c = 1.8)")?;
     within("coarse_weight", p.coarse_weight, 0.0, 1.0, "a leaf weighs 1 at its centre")?;
-    within("smoothing_cells", p.smoothing_cells, 0.0, 64.0, "the low-pass's standard deviation in cells")?;
+    within("smoothing_cells", p.smoothing_cells, *smoothing.start(), *smoothing.end(), "the low-pass in cells")?;
     within("min_points", p.min_points, 0.0, 0.25, "a fraction of all points")?;
     within("min_component", p.min_component, 0.0, 1.0, "a fraction of the largest component's area")?;
     if !(p.test_fraction > 0.0 && p.test_fraction <= 1.0) {

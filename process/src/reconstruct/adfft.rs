@@ -255,7 +255,8 @@ impl LeafGrid {
         }
         // The same ranges as the library's own entry ([`crate::limits::check_adfft_fields`]): these
         // come from a job handed between machines.
-        if !((1.0..=4.0).contains(&self.scale) && (0.0..=64.0).contains(&self.smoothing_cells)) {
+        use crate::limits::{ADFFT_SCALE, ADFFT_SMOOTHING_CELLS};
+        if !(ADFFT_SCALE.contains(&self.scale) && ADFFT_SMOOTHING_CELLS.contains(&self.smoothing_cells)) {
             return Err(format!(
                 "support scale {} or smoothing of {} cells out of range",
                 self.scale, self.smoothing_cells
