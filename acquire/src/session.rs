@@ -206,6 +206,18 @@ pub fn run(
     dev: Devices,
     mut progress: impl FnMut(usize, usize, Option<Duration>),
 ) -> Result<SessionReport, SessionError> {
+    run_dyn(out, rig, plan, resume, dev, &mut progress)
+}
+
+/// [`run`]'s body, compiled once here rather than into every caller's crate.
+fn run_dyn(
+    out: &Path,
+    rig: &Rig,
+    plan: &Plan,
+    resume: bool,
+    dev: Devices,
+    progress: &mut dyn FnMut(usize, usize, Option<Duration>),
+) -> Result<SessionReport, SessionError> {
     let start = Instant::now();
     plan.validate()?;
     let (w, h) = dev.camera.size();

@@ -221,6 +221,18 @@ pub fn simulate_board(
     out: &Path,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<ScanReport, Error> {
+    simulate_board_dyn(cfg, board, poses, opts, out, &mut progress)
+}
+
+/// [`simulate_board`]'s body, compiled once here rather than into every caller's crate.
+fn simulate_board_dyn(
+    cfg: &SimConfig,
+    board: &Board,
+    poses: &BoardPoses,
+    opts: ScanOptions,
+    out: &Path,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<ScanReport, Error> {
     let start = Instant::now();
     let patterns = program(cfg, Method::Board)?;
     let (angles, fixed): (Vec<Real>, Vec<Option<Isometry3>>) =

@@ -263,6 +263,19 @@ pub fn simulate_passes(
     out: &Path,
     mut progress: impl FnMut(usize, usize),
 ) -> Result<ScanReport, Error> {
+    simulate_passes_dyn(cfg, passes, object, opts, out, &mut progress)
+}
+
+/// [`simulate_passes`]'s body, compiled once here rather than into every crate that passes it a
+/// closure (each test binary, example and the command line compiled the whole renderer again).
+fn simulate_passes_dyn(
+    cfg: &SimConfig,
+    passes: &[SimPass],
+    object: Option<&TriMesh>,
+    opts: ScanOptions,
+    out: &Path,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Result<ScanReport, Error> {
     let start = Instant::now();
     if !(1..=rig::scan_folder::MAX_PASSES as usize).contains(&passes.len()) {
         return Err(Error::Setup(format!(

@@ -218,6 +218,16 @@ pub fn calibrate_rig(
     params: &RigCalibParams,
     mut progress: impl FnMut(&str, usize, usize),
 ) -> Result<(Rig, CalibReport), WorkflowError> {
+    calibrate_rig_dyn(positions, base, params, &mut progress)
+}
+
+/// [`calibrate_rig`]'s body, compiled once here rather than into every caller's crate.
+fn calibrate_rig_dyn(
+    positions: &[Position],
+    base: Option<&Rig>,
+    params: &RigCalibParams,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<(Rig, CalibReport), WorkflowError> {
     params.validate()?;
     let BoardSpec { cols, rows, square_mm, .. } = params.board;
     let board = Board {

@@ -33,6 +33,18 @@ pub fn process_scan(
     params: &ProcessParams,
     mut progress: impl Progress,
 ) -> Result<ProcessReport, Error> {
+    process_scan_dyn(scan, out, params, &mut progress)
+}
+
+/// [`process_scan`]'s body, compiled once here: generic over the caller's closure, the whole
+/// pipeline was compiled again at full optimisation into every crate that calls it (each test
+/// binary, each example, the command line).
+fn process_scan_dyn(
+    scan: &Path,
+    out: &Path,
+    params: &ProcessParams,
+    mut progress: &mut dyn FnMut(Stage, usize, usize),
+) -> Result<ProcessReport, Error> {
     // Every stage's options before any work: a late stage's bad option must not cost the early ones.
     params.validate()?;
     let start = Instant::now();

@@ -713,7 +713,16 @@ pub fn reconstruct_adfft_counting<'a>(
     params: &AdFftParams,
     planes: &AtomicUsize,
 ) -> Result<(TriMesh, AdFftReport), super::global_fft::ReconstructError> {
-    let cloud = cloud.into();
+    adfft_of(cloud.into(), params, planes)
+}
+
+/// [`reconstruct_adfft_counting`]'s body, compiled once here: generic over the caller's cloud type,
+/// the whole reconstruction was compiled again into every crate that called it.
+fn adfft_of(
+    cloud: rig::CloudRef<'_>,
+    params: &AdFftParams,
+    planes: &AtomicUsize,
+) -> Result<(TriMesh, AdFftReport), super::global_fft::ReconstructError> {
     let plan = plan(cloud, params)?;
     let t = Instant::now();
     let (grid, leaves, coarse) = (plan.grid(params), plan.tasks(), plan.coarse(params));

@@ -477,7 +477,15 @@ pub fn reconstruct_fft_in<'a>(
     params: &FftParams,
     tree: Option<&PointTree>,
 ) -> Result<(TriMesh, FftReport), ReconstructError> {
-    let cloud = cloud.into();
+    fft_of(cloud.into(), params, tree)
+}
+
+/// [`reconstruct_fft_in`]'s body, compiled once here rather than into every caller's crate.
+fn fft_of(
+    cloud: rig::CloudRef<'_>,
+    params: &FftParams,
+    tree: Option<&PointTree>,
+) -> Result<(TriMesh, FftReport), ReconstructError> {
     if cloud.is_empty() {
         return Err(ReconstructError::Empty);
     }

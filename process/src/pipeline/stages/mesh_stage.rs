@@ -108,7 +108,16 @@ pub fn reconstruct_in<'a>(
     tree: Option<&PointTree>,
     steps: &AtomicUsize,
 ) -> Result<(TriMesh, ReconstructReport), StageError> {
-    let cloud = cloud.into();
+    reconstruct_of(cloud.into(), params, tree, steps)
+}
+
+/// [`reconstruct_in`]'s body, compiled once here rather than into every caller's crate.
+fn reconstruct_of(
+    cloud: rig::CloudRef<'_>,
+    params: &ReconstructParams,
+    tree: Option<&PointTree>,
+    steps: &AtomicUsize,
+) -> Result<(TriMesh, ReconstructReport), StageError> {
     check_finite(cloud)?;
     params.validate_for(rig::Aabb::of(cloud.positions).map_or(0.0, |b| b.diagonal()))?;
     let (mesh, report) = match params {
@@ -415,8 +424,12 @@ pub fn mesh_counting<'a>(
     params: &MeshParams,
     steps: &AtomicUsize,
 ) -> Result<MeshMade, StageError> {
+    mesh_of(input.into(), params, steps)
+}
+
+/// [`mesh_counting`]'s body, compiled once here rather than into every caller's crate.
+fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -> Result<MeshMade, StageError> {
     params.validate()?;
-    let input = input.into();
     let tree = PointTree::new(input.positions);
     let (mesh, reconstructed) = reconstruct_in(input, &params.reconstruct, Some(&tree), steps)?;
     let (mut mesh, mut finish) = finish(mesh, input.positions, &params.finish, params.platter_z, reconstructed.cell())?;
