@@ -56,45 +56,64 @@ pub fn view_geometry(scene: &Scene, cfg: &SimConfig, rays: &[Vector3], camera_fr
     let cam = &cfg.rig.camera;
     let (w, h) = (cam.width as usize, cam.height as usize);
     let posed = scene.view(camera_from_object);
-    let nl = cfg.rig.lasers.len();
     let mut per_pixel: Vec<Pixel> = rays.par_iter().map(|dir| shade_geometry(&posed, cfg, dir)).collect();
     if scene.parts.iter().any(|p| p.albedo.has_edges()) {
         box_filter_albedo(scene, &mut per_pixel, w, h);
     }
-    let mut g = ViewGeometry {
-        width: w,
-        height: h,
-        kind: Vec::with_capacity(w * h),
-        point: Vec::with_capacity(w * h),
-        normal: Vec::with_capacity(w * h),
-        albedo: Vec::with_capacity(w * h),
-        tint: Vec::with_capacity(w * h),
-        projector: Vec::with_capacity(w * h),
-        projector_cos: Vec::with_capacity(w * h),
-        laser_distance: vec![Vec::with_capacity(w * h); nl],
-        laser_cos: vec![Vec::with_capacity(w * h); nl],
-    };
     let object_from_camera = camera_from_object.inverse();
     let object = crate::scene::PartKind::Object as u8;
-    for p in per_pixel {
-        let tint = if cfg.scene.object_colour && p.kind == object {
-            crate::colour::tint(&(object_from_camera * p.point)).map(|t| t as f32)
-        } else {
-            [1.0; 3]
-        };
-        g.tint.push(tint);
-        g.kind.push(p.kind);
-        g.point.push(p.point);
-        g.normal.push(p.normal);
-        g.albedo.push(p.albedo);
-        g.projector.push(p.projector);
-        g.projector_cos.push(p.projector_cos);
-        for k in 0..nl {
-            g.laser_distance[k].push(p.laser_distance[k]);
-            g.laser_cos[k].push(p.laser_cos[k]);
-        }
+    // Each column gathered on every core (a pixel's fields copied one by one were a single thread's
+    // work per view).
+    let column = |f: &(dyn Fn(&Pixel) -> f32 + Sync)| -> Vec<f32> { per_pixel.par_iter().map(f).collect() };
+    // Each laser's columns: the plane's distance, and the emitter's shadow ray only near the plane
+    // (only there can a point be lit). Nothing hit: NaN and 0.
+    let (laser_distance, laser_cos): (Vec<Vec<f32>>, Vec<Vec<f32>>) = cfg
+        .rig
+        .lasers
+        .iter()
+        .zip(&cfg.lasers)
+        .map(|(laser, emitter)| {
+            let distance: Vec<Real> = per_pixel
+                .par_iter()
+                .map(|p| if p.part.is_some() { laser.plane.signed_distance(&p.point) } else { Real::NAN })
+                .collect();
+            let origin = Point3::from(emitter.origin_mm);
+            let cos = per_pixel
+                .par_iter()
+                .zip(&distance)
+                .map(|(p, d)| {
+                    if p.part.is_some() && d.abs() < 4.0 * emitter.line_width_mm {
+                        lit_cos(&posed, &p.point, &p.normal, &origin)
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            (distance.iter().map(|&d| d as f32).collect(), cos)
+        })
+        .unzip();
+    ViewGeometry {
+        width: w,
+        height: h,
+        kind: per_pixel.par_iter().map(|p| p.kind).collect(),
+        point: per_pixel.par_iter().map(|p| p.point).collect(),
+        normal: per_pixel.par_iter().map(|p| p.normal).collect(),
+        albedo: column(&|p| p.albedo),
+        tint: per_pixel
+            .par_iter()
+            .map(|p| {
+                if cfg.scene.object_colour && p.kind == object {
+                    crate::colour::tint(&(object_from_camera * p.point)).map(|t| t as f32)
+                } else {
+                    [1.0; 3]
+                }
+            })
+            .collect(),
+        projector: per_pixel.par_iter().map(|p| p.projector).collect(),
+        projector_cos: column(&|p| p.projector_cos),
+        laser_distance,
+        laser_cos,
     }
-    g
 }
 
 /// Replaces point-sampled albedo with its mean over each pixel's footprint on parts whose albedo has
@@ -143,8 +162,6 @@ struct Pixel {
     albedo: f32,
     projector: Point2,
     projector_cos: f32,
-    laser_distance: Vec<f32>,
-    laser_cos: Vec<f32>,
 }
 
 /// Whether a light at `source` reaches `p` (normal `n`), and the cosine it arrives at.
@@ -157,7 +174,6 @@ fn lit_cos(scene: &PosedScene<'_>, p: &Point3, n: &Vector3, source: &Point3) -> 
 }
 
 fn shade_geometry(scene: &PosedScene<'_>, cfg: &SimConfig, dir: &Vector3) -> Pixel {
-    let nl = cfg.rig.lasers.len();
     let nan = Real::NAN;
     let mut px = Pixel {
         part: None,
@@ -168,8 +184,6 @@ fn shade_geometry(scene: &PosedScene<'_>, cfg: &SimConfig, dir: &Vector3) -> Pix
         albedo: 0.0,
         projector: Point2::new(nan, nan),
         projector_cos: 0.0,
-        laser_distance: vec![f32::NAN; nl],
-        laser_cos: vec![0.0; nl],
     };
     if !dir.x.is_finite() {
         return px;
@@ -189,14 +203,6 @@ fn shade_geometry(scene: &PosedScene<'_>, cfg: &SimConfig, dir: &Vector3) -> Pix
         if cos > 0.0 {
             px.projector = uv;
             px.projector_cos = cos;
-        }
-    }
-    for (k, (laser, emitter)) in cfg.rig.lasers.iter().zip(&cfg.lasers).enumerate() {
-        let d = laser.plane.signed_distance(&p);
-        px.laser_distance[k] = d as f32;
-        // Only points near the plane can be lit: skip the shadow ray elsewhere.
-        if d.abs() < 4.0 * emitter.line_width_mm {
-            px.laser_cos[k] = lit_cos(scene, &p, &hit.normal, &Point3::from(emitter.origin_mm));
         }
     }
     px
