@@ -64,7 +64,6 @@ pub fn view_geometry(scene: &Scene, cfg: &SimConfig, rays: &[Vector3], camera_fr
     let object = crate::scene::PartKind::Object as u8;
     // Each column gathered on every core (a pixel's fields copied one by one were a single thread's
     // work per view).
-    let column = |f: &(dyn Fn(&Pixel) -> f32 + Sync)| -> Vec<f32> { per_pixel.par_iter().map(f).collect() };
     // Each laser's columns: the plane's distance, and the emitter's shadow ray only near the plane
     // (only there can a point be lit). Nothing hit: NaN and 0.
     let (laser_distance, laser_cos): (Vec<Vec<f32>>, Vec<Vec<f32>>) = cfg
@@ -89,7 +88,7 @@ pub fn view_geometry(scene: &Scene, cfg: &SimConfig, rays: &[Vector3], camera_fr
                     }
                 })
                 .collect();
-            (distance.iter().map(|&d| d as f32).collect(), cos)
+            (distance.par_iter().map(|&d| d as f32).collect(), cos)
         })
         .unzip();
     ViewGeometry {
@@ -98,7 +97,7 @@ pub fn view_geometry(scene: &Scene, cfg: &SimConfig, rays: &[Vector3], camera_fr
         kind: per_pixel.par_iter().map(|p| p.kind).collect(),
         point: per_pixel.par_iter().map(|p| p.point).collect(),
         normal: per_pixel.par_iter().map(|p| p.normal).collect(),
-        albedo: column(&|p| p.albedo),
+        albedo: per_pixel.par_iter().map(|p| p.albedo).collect(),
         tint: per_pixel
             .par_iter()
             .map(|p| {
@@ -110,7 +109,7 @@ pub fn view_geometry(scene: &Scene, cfg: &SimConfig, rays: &[Vector3], camera_fr
             })
             .collect(),
         projector: per_pixel.par_iter().map(|p| p.projector).collect(),
-        projector_cos: column(&|p| p.projector_cos),
+        projector_cos: per_pixel.par_iter().map(|p| p.projector_cos).collect(),
         laser_distance,
         laser_cos,
     }
