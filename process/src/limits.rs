@@ -263,15 +263,18 @@ pub(crate) fn check_padding(padding: Real) -> Result<(), ParamError> {
 /// it checks its depth.
 pub fn check_adfft_fields(p: &crate::reconstruct::adfft::AdFftParams) -> Result<(), ParamError> {
     check_padding(p.padding)?;
-    let within = |field: &'static str, x: Real, lo: Real, hi: Real, why: &str| {
-        if (lo..=hi).contains(&x) { Ok(()) } else { Err(bad(field, x, format!("must be from {lo} to {hi}: {why}"))) }
+    let within = |field: &'static str, x: Real, range: std::ops::RangeInclusive<Real>, why: &str| {
+        if range.contains(&x) {
+            Ok(())
+        } else {
+            Err(bad(field, x, format!("must be from {} to {}: {why}", range.start(), range.end())))
+        }
     };
-    let (scale, smoothing) = (ADFFT_SCALE, ADFFT_SMOOTHING_CELLS);
-    within("scale", p.scale, *scale.start(), *scale.end(), "a leaf's support must cover its cell (c = 1.8)")?;
-    within("coarse_weight", p.coarse_weight, 0.0, 1.0, "a leaf weighs 1 at its centre")?;
-    within("smoothing_cells", p.smoothing_cells, *smoothing.start(), *smoothing.end(), "the low-pass in cells")?;
-    within("min_points", p.min_points, 0.0, 0.25, "a fraction of all points")?;
-    within("min_component", p.min_component, 0.0, 1.0, "a fraction of the largest component's area")?;
+    within("scale", p.scale, ADFFT_SCALE, "a leaf's support must cover its cell (c = 1.8)")?;
+    within("coarse_weight", p.coarse_weight, 0.0..=1.0, "a leaf weighs 1 at its centre")?;
+    within("smoothing_cells", p.smoothing_cells, ADFFT_SMOOTHING_CELLS, "the low-pass in cells")?;
+    within("min_points", p.min_points, 0.0..=0.25, "a fraction of all points")?;
+    within("min_component", p.min_component, 0.0..=1.0, "a fraction of the largest component's area")?;
     if !(p.test_fraction > 0.0 && p.test_fraction <= 1.0) {
         return Err(bad("test_fraction", p.test_fraction, "must be a fraction above 0 and at most 1"));
     }
