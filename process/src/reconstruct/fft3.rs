@@ -3,8 +3,9 @@
 //!
 //! Each z-plane is transformed along x and y in one go, in parallel over planes: its rows along x,
 //! 8 at a time (a cache line of complex f32), their spectra written column by column so that the
-//! plane is then y-fastest and its lines along y are contiguous. One blocked transpose (in parallel) turns the grid z-fastest,
-//! entry (kx, ky, kz) at `kz + N·(ky + N·kx)`, where the lines along z are contiguous too. Gathering
+//! plane is then y-fastest and its lines along y are contiguous. The lines along z are then gathered
+//! across the planes, a few at a time, and transformed where they land: the spectrum is z-fastest,
+//! entry (kx, ky, kz) at `kz + N·(ky + N·kx)`, and the inverse transposes it back. Gathering
 //! each line across the planes and scattering it back, the layout x-fastest throughout, had taken a
 //! third of a leaf's solve in AdFFT. Whoever multiplies the spectrum reads it in this layout
 //! ([`RealFft3::spectrum_index`]).
@@ -30,6 +31,9 @@ pub struct RealFft3 {
 /// Rows or columns moved together by the planes' transforms and the transposes: 8 complex f32 are
 /// one 64-byte cache line, so each line read is used whole.
 const BLOCK: usize = 8;
+
+/// Lines along z gathered and transformed together by [`RealFft3::forward_z`]: 32 at 128³ are 32 KB.
+const Z_LINES: usize = 32;
 
 impl RealFft3 {
     /// Plans transforms of an `n`³ grid; `n` even.
@@ -94,30 +98,79 @@ impl RealFft3 {
     /// Forward transform of the real grid in `buffer` ([`RealFft3::real_part`]) into its spectrum, in
     /// `buffer` too; `scratch` (spectrum-sized) is left garbage.
     pub fn forward(&self, buffer: &mut [Complex32], scratch: &mut [Complex32]) {
+        self.forward_planes(buffer, scratch, |out, plane| out.copy_from_slice(plane));
+        self.forward_z(scratch, buffer);
+    }
+
+    /// The forward transform's first half: each z-plane of the real grid in `buffer`
+    /// ([`RealFft3::real_part`]; left garbage) transformed along x and y, handed to `emit` with its
+    /// plane of `planes` to write, both with entry (kx, ky) at `ky + N·kx` (plane z of `planes` is
+    /// its z-th (N/2 + 1)·N entries). A caller summing transforms that differ only in how their planes
+    /// are weighed adds them here and takes [`RealFft3::forward_z`] once for the sum.
+    ///
+    /// Rows that are all zero are not transformed (their spectrum is zero), nor planes that are: a
+    /// local solve's samples lie on a surface, and most rows along x miss it.
+    pub fn forward_planes(
+        &self,
+        buffer: &mut [Complex32],
+        planes: &mut [Complex32],
+        emit: impl Fn(&mut [Complex32], &[Complex32]) + Sync,
+    ) {
         let (n, h) = (self.n, self.half());
-        assert_eq!((buffer.len(), scratch.len()), (self.spectrum_len(), self.spectrum_len()));
+        assert_eq!((buffer.len(), planes.len()), (self.spectrum_len(), self.spectrum_len()));
         let real = self.real_part(buffer);
-        // Plane z of `scratch`: entry (kx, ky) at `ky + N·kx`.
-        real.par_chunks_mut(n * n).zip(scratch.par_chunks_mut(h * n)).with_min_len(self.min_len).for_each_init(
-            || (self.r2c.make_scratch_vec(), vec![Complex32::default(); BLOCK * h], self.y_scratch(&self.forward)),
-            |(work, rows, y_work), (plane, out)| {
+        real.par_chunks_mut(n * n).zip(planes.par_chunks_mut(h * n)).with_min_len(self.min_len).for_each_init(
+            || {
+                let zero = Complex32::default();
+                (self.r2c.make_scratch_vec(), vec![zero; BLOCK * h], self.y_scratch(&self.forward), vec![zero; h * n])
+            },
+            |(work, rows, y_work, spectrum), (plane, out)| {
+                let mut any = false;
                 for y0 in (0..n).step_by(BLOCK) {
                     let count = BLOCK.min(n - y0);
                     for (j, row) in rows.chunks_mut(h).take(count).enumerate() {
                         let line = &mut plane[(y0 + j) * n..][..n];
-                        self.r2c.process_with_scratch(line, row, work).expect("lengths match");
+                        if line.iter().all(|&v| v == 0.0) {
+                            row.fill(Complex32::default());
+                        } else {
+                            any = true;
+                            self.r2c.process_with_scratch(line, row, work).expect("lengths match");
+                        }
                     }
                     for kx in 0..h {
-                        for (j, v) in out[kx * n + y0..][..count].iter_mut().enumerate() {
+                        for (j, v) in spectrum[kx * n + y0..][..count].iter_mut().enumerate() {
                             *v = rows[j * h + kx];
                         }
                     }
                 }
-                self.forward.process_with_scratch(out, y_work);
+                if any {
+                    self.forward.process_with_scratch(spectrum, y_work);
+                }
+                emit(out, spectrum);
             },
         );
-        self.to_z_fastest(scratch, buffer);
-        self.along_z(buffer, &self.forward);
+    }
+
+    /// The forward transform's second half: `planes` as [`RealFft3::forward_planes`] left them
+    /// transformed along z into `spectrum` ([`RealFft3::spectrum_index`]).
+    ///
+    /// [`Z_LINES`] lines at a time are gathered across the planes and transformed while they are in
+    /// cache: one pass over the spectrum where a transpose and then the transforms took two.
+    pub fn forward_z(&self, planes: &[Complex32], spectrum: &mut [Complex32]) {
+        let (n, row) = (self.n, self.half() * self.n);
+        assert_eq!((planes.len(), spectrum.len()), (self.spectrum_len(), self.spectrum_len()));
+        spectrum.par_chunks_mut(Z_LINES * n).enumerate().with_min_len(self.min_len).for_each_init(
+            || vec![Complex32::default(); self.forward.get_inplace_scratch_len()],
+            |scratch, (b, lines)| {
+                let (c0, width) = (b * Z_LINES, lines.len() / n);
+                for z in 0..n {
+                    for (j, v) in planes[z * row + c0..][..width].iter().enumerate() {
+                        lines[j * n + z] = *v;
+                    }
+                }
+                self.forward.process_with_scratch(lines, scratch);
+            },
+        );
     }
 
     /// Inverse transform (unnormalised: a forward–inverse round trip scales by N³) of the spectrum in
@@ -166,22 +219,8 @@ impl RealFft3 {
         );
     }
 
-    /// `to[c·N + z] = from[z·(half·N) + c]`: the planes transformed along x and y, an N × (half·N)
-    /// matrix, transposed into the z-fastest layout; blocks of [`BLOCK`] output lines in parallel.
-    fn to_z_fastest(&self, from: &[Complex32], to: &mut [Complex32]) {
-        let (n, row) = (self.n, self.half() * self.n);
-        to.par_chunks_mut(BLOCK * n).enumerate().with_min_len(self.min_len).for_each(|(b, block)| {
-            let c0 = b * BLOCK;
-            let width = block.len() / n;
-            for z in 0..n {
-                for (j, v) in from[z * row + c0..][..width].iter().enumerate() {
-                    block[j * n + z] = *v;
-                }
-            }
-        });
-    }
-
-    /// The inverse of [`RealFft3::to_z_fastest`]: blocks of [`BLOCK`] z-planes in parallel.
+    /// The inverse of [`RealFft3::forward_z`]'s gather, `to[z·(half·N) + c] = from[c·N + z]`: blocks of
+    /// [`BLOCK`] z-planes in parallel.
     fn to_x_fastest(&self, from: &[Complex32], to: &mut [Complex32]) {
         let (n, row) = (self.n, self.half() * self.n);
         to.par_chunks_mut(BLOCK * row).enumerate().with_min_len(self.min_len).for_each(|(b, planes)| {
@@ -227,5 +266,37 @@ mod tests {
             let worst = real.iter().zip(&grid).map(|(r, g)| (r / total - g).abs()).fold(0.0, f32::max);
             assert!(worst < 1e-4, "round trip off by {worst}");
         }
+    }
+
+    /// Rows and planes that are all zero are skipped, not dropped: a few points in an otherwise empty
+    /// grid (most rows and planes zero, as a local solve's samples leave them) come out with each
+    /// entry of the spectrum their analytic sum, Σ a·exp(−2πi·k·x/N).
+    #[test]
+    fn a_grid_of_a_few_points_has_their_analytic_spectrum() {
+        let n = 16;
+        let points = [((3, 5, 7), 1.0f32), ((3, 6, 7), -0.5), ((12, 0, 9), 2.0)];
+        let fft = RealFft3::new(n);
+        let mut buffer = vec![Complex32::default(); fft.spectrum_len()];
+        let mut scratch = buffer.clone();
+        for &((x, y, z), a) in &points {
+            fft.real_part(&mut buffer)[x + n * (y + n * z)] = a;
+        }
+        fft.forward(&mut buffer, &mut scratch);
+        let mut worst = 0f32;
+        for kx in 0..fft.half() {
+            for ky in 0..n {
+                for kz in 0..n {
+                    let expected: Complex32 = points
+                        .iter()
+                        .map(|&((x, y, z), a)| {
+                            let phase = -std::f32::consts::TAU * ((kx * x + ky * y + kz * z) % n) as f32 / n as f32;
+                            Complex32::from_polar(a, phase)
+                        })
+                        .sum();
+                    worst = worst.max((buffer[fft.spectrum_index(kx, ky, kz)] - expected).norm());
+                }
+            }
+        }
+        assert!(worst < 1e-4, "spectrum off by {worst}");
     }
 }
