@@ -667,18 +667,24 @@ fn cut_to_support(chi: &[f32], cube: &Cube, level: &Level, cell: &LeafTask, grid
     });
     let coordinate = |d: usize, a: usize| origin[d] + (lo[d] + a) as Real * h;
     let u: Vec<Real> = (0..dims[0]).map(|x| (coordinate(0, x) - level.centre.x) / level.spread).collect();
+    // The row's local points: a run of the local grid (the support lies inside the doubled cube), or
+    // gathered one by one where it would not.
+    let first = local[0][0];
+    let run = local[0].iter().enumerate().all(|(x, &i)| i == first + x);
     let mut values = Vec::with_capacity(dims[0] * dims[1] * dims[2]);
     for z in 0..dims[2] {
         for y in 0..dims[1] {
             let [a, b, c] = level.along_x(coordinate(1, y), coordinate(2, z));
             let row = &chi[local_n * (local[1][y] + local_n * local[2][z])..][..local_n];
-            for (x, &i) in local[0].iter().enumerate() {
-                // Within f16's range, which the sweep holds values in ([`ActiveLeaf`]): a value past
-                // it would turn to ±∞ there, and ∞ times a zero weight at the support's edge to NaN,
-                // which marching cubes reads as outside. χ − iso is a few units at most; the clamp
-                // keeps the sign of anything wilder.
-                let v = row[i] - (a + u[x] * (b + u[x] * c)) as f32;
-                values.push(v.clamp(-F16_LIMIT, F16_LIMIT));
+            // Within f16's range, which the sweep holds values in ([`ActiveLeaf`]): a value past it
+            // would turn to ±∞ there, and ∞ times a zero weight at the support's edge to NaN, which
+            // marching cubes reads as outside. χ − iso is a few units at most; the clamp keeps the
+            // sign of anything wilder.
+            let value = |chi: f32, u: Real| (chi - (a + u * (b + u * c)) as f32).clamp(-F16_LIMIT, F16_LIMIT);
+            if run {
+                values.extend(row[first..][..dims[0]].iter().zip(&u).map(|(&chi, &u)| value(chi, u)));
+            } else {
+                values.extend(local[0].iter().zip(&u).map(|(&i, &u)| value(row[i], u)));
             }
         }
     }
