@@ -35,8 +35,8 @@ pub struct RepairReport {
 ///
 /// Candidates from a grid of cells no smaller than a triangle's box: each triangle is filed once, by
 /// the cell of its box's lower corner, in one sorted list; two boxes that overlap then have their
-/// lower corners in the same or neighbouring cells, so each cell looks through the 27 about it, in
-/// parallel. A triangle whose box is larger than a cell (a sliver, in a broken mesh) is kept out and
+/// lower corners in the same or neighbouring cells, so each pair of neighbouring cells is looked
+/// through once, in parallel. A triangle whose box is larger than a cell (a sliver, in a broken mesh) is kept out and
 /// tested against every triangle: a slower search rather than unbounded memory. (At 512³ a serial
 /// hash grid with a set of the pairs seen had taken a second for the bunny's 1.2 M triangles, with
 /// none to find; filed in every cell its box met, the list had cost 140 MB.)
