@@ -32,7 +32,6 @@ use super::global_fft::{
 };
 use super::marching_cubes::{GridFrame, join_slabs, marching_cubes, marching_cubes_layers};
 use super::mesh_distance::MeshDistance;
-use super::prune::prune_small_components;
 use crate::kd_tree::PointTree;
 use half::f16;
 use half::slice::HalfFloatSliceExt;
@@ -1188,8 +1187,8 @@ fn clean(
     mut report: AdFftReport,
     t: Instant,
 ) -> (TriMesh, AdFftReport) {
-    report.components_pruned = prune_small_components(&mut mesh, params.min_component)
-        + super::prune::prune_components_away_from(&mut mesh, &samples.tree, 4.0 * report.cell);
+    report.components_pruned =
+        super::prune::prune_small_or_away(&mut mesh, params.min_component, &samples.tree, 4.0 * report.cell);
     let area: Real = samples.weights.iter().sum();
     let radius = super::fit::radius(samples.positions.len(), area, report.cell);
     report.fit = super::fit::fit_to_samples(&mut mesh, samples.positions, samples.normals, radius, 0.5 * report.cell);
