@@ -108,15 +108,21 @@ mod tests {
     use super::*;
     use rig::math::Point3;
 
+    /// Closed tetrahedra of edge `s`, their corners at x = `o`, one after another in one mesh.
+    fn tetrahedra(shapes: &[(Real, Real)]) -> TriMesh {
+        let mut mesh = TriMesh::default();
+        for &(s, o) in shapes {
+            let b = mesh.vertices.len() as u32;
+            let p = |x: Real, y: Real, z: Real| Point3::new(o + x, y, z);
+            mesh.vertices.extend([p(0.0, 0.0, 0.0), p(s, 0.0, 0.0), p(0.0, s, 0.0), p(0.0, 0.0, s)]);
+            mesh.faces.extend([[b, b + 2, b + 1], [b, b + 1, b + 3], [b, b + 3, b + 2], [b + 1, b + 2, b + 3]]);
+        }
+        mesh
+    }
+
     #[test]
     fn the_small_tetrahedron_goes_and_the_big_one_stays() {
-        let tet = |s: Real, o: Real| -> Vec<Point3> {
-            vec![Point3::new(o, 0.0, 0.0), Point3::new(o + s, 0.0, 0.0), Point3::new(o, s, 0.0), Point3::new(o, 0.0, s)]
-        };
-        let mut vertices = tet(0.1, 5.0);
-        vertices.extend(tet(1.0, 0.0));
-        let faces = |b: u32| [[b, b + 2, b + 1], [b, b + 1, b + 3], [b, b + 3, b + 2], [b + 1, b + 2, b + 3]];
-        let mut mesh = TriMesh { vertices, faces: [faces(0), faces(4)].concat(), normals: None };
+        let mut mesh = tetrahedra(&[(0.1, 5.0), (1.0, 0.0)]);
         assert_eq!(prune_small_components(&mut mesh, 0.05), 1);
         assert_eq!((mesh.vertices.len(), mesh.faces.len()), (4, 4));
         assert_eq!(mesh.vertices[1], Point3::new(1.0, 0.0, 0.0));
@@ -127,24 +133,15 @@ mod tests {
     /// samples stays.
     #[test]
     fn small_and_far_components_go_together() {
-        let tet = |s: Real, o: Real| -> Vec<Point3> {
-            vec![Point3::new(o, 0.0, 0.0), Point3::new(o + s, 0.0, 0.0), Point3::new(o, s, 0.0), Point3::new(o, 0.0, s)]
-        };
         // Small on the samples, big on them, big 20 away.
-        let mut vertices = tet(0.1, 5.0);
-        vertices.extend(tet(1.0, 0.0));
-        vertices.extend(tet(1.0, 20.0));
-        let samples = crate::kd_tree::PointTree::new(&vertices[..8]);
-        let faces = |b: u32| [[b, b + 2, b + 1], [b, b + 1, b + 3], [b, b + 3, b + 2], [b + 1, b + 2, b + 3]];
-        let mut mesh = TriMesh { vertices, faces: [faces(0), faces(4), faces(8)].concat(), normals: None };
+        let shapes = [(0.1, 5.0), (1.0, 0.0), (1.0, 20.0)];
+        let mut mesh = tetrahedra(&shapes);
+        let samples = crate::kd_tree::PointTree::new(&mesh.vertices[..8]);
         assert_eq!(prune_small_or_away(&mut mesh, 0.05, &samples, 0.5), 2);
         assert_eq!((mesh.vertices.len(), mesh.faces.len()), (4, 4));
         assert_eq!(mesh.vertices[1], Point3::new(1.0, 0.0, 0.0));
         // Without the size test only the far one goes.
-        let mut vertices = tet(0.1, 5.0);
-        vertices.extend(tet(1.0, 0.0));
-        vertices.extend(tet(1.0, 20.0));
-        let mut mesh = TriMesh { vertices, faces: [faces(0), faces(4), faces(8)].concat(), normals: None };
+        let mut mesh = tetrahedra(&shapes);
         assert_eq!(prune_small_or_away(&mut mesh, 0.0, &samples, 0.5), 1);
         assert_eq!(mesh.faces.len(), 8);
     }
