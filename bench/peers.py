@@ -3,7 +3,8 @@
 here, back to back at each depth, and writes the side-by-side table into BENCHMARKS.md (issue 42).
 
     cargo build --release --bin scanrig && cargo build --release -p process --example peers_bench
-    python3 bench/peers.py [--depths 8 9 10] [--peer-python VENV/bin/python] [--poissonrecon BIN] [--write]
+    python3 bench/peers.py [--depths 8 9 10] [--peer-python VENV/bin/python] [--poissonrecon BIN]
+        [--repeat N] [--write]
 
 The peers, each run when found, else named as missing in the table:
   - Open3D's Poisson (`TriangleMesh.create_from_point_cloud_poisson`) and MeshLab's screened Poisson
@@ -17,7 +18,10 @@ Every tool runs as its own process, reading the same PLY and writing a mesh, so 
 process's own maximum resident set (os.wait4's ru_maxrss). The meshes are then measured alike by
 `peers_bench score` (accuracy, completeness and their mean against bun_zipper.ply, topology,
 self-intersections). Compare ratios within one run of this script: the machine's speed drifts between
-runs. A run that exceeds --timeout is stopped and reported as such.
+runs. With --repeat N each depth runs every tool N times in rounds (all tools, then all again), and
+takes each tool's fastest time and largest peak: a 2-core machine's speed moves by a quarter from
+minute to minute, and one slow minute had decided a ratio near the goal. A run that exceeds
+--timeout is stopped and reported as such.
 """
 
 import argparse
@@ -149,9 +153,12 @@ def main():
     ap.add_argument("--peer-python", default=sys.executable)
     ap.add_argument("--poissonrecon")
     ap.add_argument("--timeout", type=float, default=1800, help="seconds one reconstruction may run")
+    ap.add_argument("--repeat", type=int, default=1, help="runs of each tool per depth, in interleaved rounds (time: the fastest)")
     ap.add_argument("--write", action="store_true", help="replace the table in BENCHMARKS.md")
     ap.add_argument("--keep", help="a new folder to keep the input and the meshes in")
     a = ap.parse_args()
+    if not 1 <= a.repeat <= 20:
+        ap.error("--repeat: 1 to 20")
     if any(not 5 <= d <= 12 for d in a.depths):
         ap.error("--depths: each between 5 and 12")
     for what, path in [("--scanrig", a.scanrig), ("--scorer", a.scorer)]:
@@ -169,13 +176,27 @@ def main():
         found, missing = tools(a)
         rows = []
         for d in a.depths:
-            for name, cmd in found:
-                out = os.path.join(work, f"{re.sub(r'[^a-z0-9]+', '_', name.lower())}_{d}.ply")
-                seconds, peak, err = run_measured(cmd(points, out, d), a.timeout)
-                row = {"depth": d, "tool": name, "seconds": seconds, "peak_mb": peak}
+            # Rounds: every tool once, then every tool again, so a slow minute on this shared machine
+            # falls on all of them alike; each tool's time is its fastest run, its peak its largest.
+            runs = {name: [] for name, _ in found}
+            for _ in range(a.repeat):
+                for name, cmd in found:
+                    out = os.path.join(work, f"{re.sub(r'[^a-z0-9]+', '_', name.lower())}_{d}.ply")
+                    if os.path.exists(out):
+                        os.remove(out)  # so a run that writes nothing is not credited with the last one's mesh
+                    runs[name].append((out, *run_measured(cmd(points, out, d), a.timeout)))
+            for name, _ in found:
+                out = runs[name][-1][0]
+                failed = [r[3] for r in runs[name] if r[3] is not None]
+                seconds = min(r[1] for r in runs[name])
+                row = {"depth": d, "tool": name, "seconds": seconds, "peak_mb": max(r[2] for r in runs[name])}
+                if a.repeat > 1:
+                    row["runs_seconds"] = [round(r[1], 2) for r in runs[name]]
+                err = failed[0] if failed else None
                 if err is None and not os.path.exists(out):
                     err = "wrote no mesh"
                 if err is None:
+                    # The last run's mesh (a peer's can differ from run to run).
                     scored = subprocess.run([a.scorer, "score", out], check=True, capture_output=True, text=True)
                     row["score"] = json.loads(scored.stdout.strip().splitlines()[-1])
                     err = row["score"].get("error")
@@ -186,9 +207,13 @@ def main():
                 rows.append(row)
                 print(json.dumps(row), flush=True)
         stamp = (
-            f"`python3 bench/peers.py --depths {' '.join(map(str, a.depths))}` on {time.strftime('%Y-%m-%d')}, "
+            f"`python3 bench/peers.py --depths {' '.join(map(str, a.depths))}"
+            + (f" --repeat {a.repeat}` " if a.repeat > 1 else "` ")
+            + f"on {time.strftime('%Y-%m-%d')}, "
             f"{os.cpu_count()} cores: the ten aligned bunny scans (362,272 points, sensor-oriented PCA normals), "
-            "each tool a process of its own; time and peak RSS of the whole process; chamfer = the mean of "
+            "each tool a process of its own; time and peak RSS of the whole process"
+            + (f" (the fastest and the largest of {a.repeat} runs, in rounds of every tool)" if a.repeat > 1 else "")
+            + "; chamfer = the mean of "
             "accuracy and completeness against bun_zipper.ply (mm)."
         )
         text = table(rows, a.depths, missing, stamp)
