@@ -109,7 +109,8 @@ impl RealFft3 {
     /// are weighed adds them here and takes [`RealFft3::forward_z`] once for the sum.
     ///
     /// Rows that are all zero are not transformed (their spectrum is zero), nor planes that are: a
-    /// local solve's samples lie on a surface, and most rows along x miss it.
+    /// local solve's samples lie on a surface, which about half the rows along x miss (0.12–0.83 of a
+    /// 128³ leaf's rows are hit, 0.48 on average, over 40 leaves of the bunny at 512³).
     pub fn forward_planes(
         &self,
         buffer: &mut [Complex32],
@@ -154,7 +155,7 @@ impl RealFft3 {
     /// The forward transform's second half: `planes` as [`RealFft3::forward_planes`] left them
     /// transformed along z into `spectrum` ([`RealFft3::spectrum_index`]).
     ///
-    /// [`Z_LINES`] lines at a time are gathered across the planes and transformed while they are in
+    /// 32 lines at a time (`Z_LINES`) are gathered across the planes and transformed while they are in
     /// cache: one pass over the spectrum where a transpose and then the transforms took two.
     pub fn forward_z(&self, planes: &[Complex32], spectrum: &mut [Complex32]) {
         let (n, row) = (self.n, self.half() * self.n);
