@@ -98,7 +98,7 @@ impl RealFft3 {
     /// Forward transform of the real grid in `buffer` ([`RealFft3::real_part`]) into its spectrum, in
     /// `buffer` too; `scratch` (spectrum-sized) is left garbage.
     pub fn forward(&self, buffer: &mut [Complex32], scratch: &mut [Complex32]) {
-        self.forward_planes(buffer, scratch, |out, plane| out.copy_from_slice(plane));
+        self.forward_planes(buffer, scratch, &|out, plane| out.copy_from_slice(plane));
         self.forward_z(scratch, buffer);
     }
 
@@ -106,7 +106,8 @@ impl RealFft3 {
     /// ([`RealFft3::real_part`]; left garbage) transformed along x and y, handed to `emit` with its
     /// plane of `planes` to write, both with entry (kx, ky) at `ky + N·kx` (plane z of `planes` is
     /// its z-th (N/2 + 1)·N entries). A caller summing transforms that differ only in how their planes
-    /// are weighed adds them here and takes [`RealFft3::forward_z`] once for the sum.
+    /// are weighed adds them here and takes [`RealFft3::forward_z`] once for the sum. (`emit` is a
+    /// trait object, called once a plane: the parallel loop is compiled once, not per closure.)
     ///
     /// Rows that are all zero are not transformed (their spectrum is zero), nor planes that are: a
     /// local solve's samples lie on a surface, which about half the rows along x miss (0.12–0.83 of a
@@ -115,7 +116,7 @@ impl RealFft3 {
         &self,
         buffer: &mut [Complex32],
         planes: &mut [Complex32],
-        emit: impl Fn(&mut [Complex32], &[Complex32]) + Sync,
+        emit: &(dyn Fn(&mut [Complex32], &[Complex32]) + Sync),
     ) {
         let (n, h) = (self.n, self.half());
         assert_eq!((buffer.len(), planes.len()), (self.spectrum_len(), self.spectrum_len()));

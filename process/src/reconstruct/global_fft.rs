@@ -414,7 +414,7 @@ pub fn solve_indicator(
     let h = fft.half();
     splat(0, buffer);
     let t = Instant::now();
-    fft.forward_planes(buffer, chi_hat, |out, plane| {
+    fft.forward_planes(buffer, chi_hat, &|out, plane| {
         for (kx, (out, plane)) in out.chunks_mut(n).zip(plane.chunks(n)).enumerate() {
             out.iter_mut().zip(plane).for_each(|(o, v)| *o = v * omega[kx]);
         }
@@ -422,7 +422,7 @@ pub fn solve_indicator(
     fft_seconds += t.elapsed().as_secs_f64();
     splat(1, buffer);
     let t = Instant::now();
-    fft.forward_planes(buffer, chi_hat, |out, plane| {
+    fft.forward_planes(buffer, chi_hat, &|out, plane| {
         for (out, plane) in out.chunks_mut(n).zip(plane.chunks(n)) {
             out.iter_mut().zip(plane).zip(&omega).for_each(|((o, v), w)| *o += v * w);
         }
@@ -431,7 +431,7 @@ pub fn solve_indicator(
     fft_seconds += t.elapsed().as_secs_f64();
     splat(2, chi_hat);
     let t = Instant::now();
-    fft.forward_planes(chi_hat, scratch, |out, plane| out.copy_from_slice(plane));
+    fft.forward_planes(chi_hat, scratch, &|out, plane| out.copy_from_slice(plane));
     fft.forward_z(scratch, chi_hat);
     // χ̂ = i·gain·(Â + ω_z·V̂_z), gain = G/|ω|², a kx-plane of the spectrum (z fastest,
     // [`RealFft3::spectrum_index`]) per job.
