@@ -274,12 +274,23 @@ impl Manifest {
     }
 
     /// Reads `scan.json` from a scan folder, with the views its `scan.progress` journal completes.
+    ///
+    /// The journal is read first. A capture folds it into `scan.json` at the end ([`Manifest::write`]:
+    /// the new `scan.json` in place, then the journal removed), while the station's live view reads
+    /// the manifest of the view just captured: reading `scan.json` first, a reader could get the
+    /// manifest before the fold and then find the journal gone, and the last view incomplete. Read in
+    /// this order, either the journal holds the view or the `scan.json` read after it does.
     pub fn read(dir: &Path) -> Result<Manifest, Error> {
+        let journal = dir.join(PROGRESS_NAME);
+        // Gone between the look and the read: folded, as above.
+        let progress = match journal.is_file().then(|| read_bytes(&journal)) {
+            Some(Err(_)) if !journal.exists() => None,
+            other => other.transpose()?,
+        };
         let path = dir.join(MANIFEST_NAME);
         let mut m = Manifest::from_json(&read_bytes(&path)?).map_err(|e| e.with_path(&path))?;
-        let journal = dir.join(PROGRESS_NAME);
-        if journal.is_file() {
-            let done = parse_progress(&read_bytes(&journal)?, m.views.len()).map_err(|e| e.with_path(&journal))?;
+        if let Some(bytes) = progress {
+            let done = parse_progress(&bytes, m.views.len()).map_err(|e| e.with_path(&journal))?;
             for v in done {
                 m.views[v].complete = true;
             }
