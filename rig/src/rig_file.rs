@@ -418,14 +418,10 @@ impl Rig {
                 })
             })
             .transpose()?;
+        // The platter's radius and working height are checked by `Rig::validate` below, not here: a
+        // rig read from a file and one built in code are refused naming the same field first.
         let platter_radius_mm = t.turntable.as_ref().and_then(|tt| tt.platter_radius_mm);
-        if platter_radius_mm.is_some_and(|r| !(r.is_finite() && r > 0.0)) {
-            return Err(invalid("turntable.platter_radius_mm", "must be positive"));
-        }
         let working_height_mm = t.turntable.as_ref().and_then(|tt| tt.working_height_mm);
-        if working_height_mm.is_some_and(|h| !(h.is_finite() && h > 0.0)) {
-            return Err(invalid("turntable.working_height_mm", "must be positive"));
-        }
         let platform_rotation = match t.turntable.as_ref().and_then(|tt| tt.platform_rotation) {
             None => None,
             Some(r) => {
