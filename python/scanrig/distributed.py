@@ -31,6 +31,7 @@ import pathlib
 import sys
 import tempfile
 import time
+import warnings
 from typing import Any, Optional, Sequence
 
 import numpy as np
@@ -141,6 +142,7 @@ def reconstruct(
     leaves_per_task: Optional[int] = None,
     address: Optional[str] = None,
     workers: Optional[int] = None,
+    force: bool = False,
 ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
     """AdFFT with its sweep done by Ray tasks: the same (V, F, report) as
     ``scanrig.reconstruct(points, normals, method="adfft", ...)``, the report with a
@@ -148,7 +150,9 @@ def reconstruct(
     store once. Solve tasks of ``leaves_per_task`` leaves each (default: one task per CPU) solve
     their leaves and cut each into the parts the slabs need; one task per slab (default: one per
     CPU) blends and marches its layers from those parts. The parts go from worker to worker; only the
-    slabs' meshes come back, joined along their shared planes here."""
+    slabs' meshes come back, joined along their shared planes here. The mesh is checked as
+    ``scanrig.reconstruct`` checks its own: no surface, or one far from the points (unless
+    ``force``), raises ``StageError``; anything else wrong is a ``UserWarning``."""
     if method != "adfft":
         raise ValueError(f'method: only "adfft" has leaves to spread over workers, got {method!r}')
     if leaves_per_task is not None and leaves_per_task < 1:
@@ -197,12 +201,18 @@ def reconstruct(
             depth=depth,
             error=error,
             samples_per_cell=samples_per_cell,
+            force=force,
         )
         report["distributed"] = spread
         return v, f, report
     finally:
         if started:
             ray.shutdown()
+
+
+def _say(message, category, filename, lineno, file=None, line=None):
+    # A warning on the command line reads as scanrig's own do ("warning: ..."), not as a source line.
+    print(f"warning: {message}", file=sys.stderr)
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
@@ -221,7 +231,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     r.add_argument("--error", type=float)
     r.add_argument("--samples-per-cell", type=float, help="as `scanrig reconstruct --samples-per-cell` (0: keep --depth)")
     r.add_argument("--slabs", type=int, help="slabs of the sweep (default: one per CPU)")
+    r.add_argument("--force", action="store_true", help="keep a mesh far from its points, with a warning")
     args = parser.parse_args(argv)
+    warnings.showwarning = _say
     try:
         if args.command == "process":
             reports = process_scans(
@@ -236,6 +248,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             v, f, rep = reconstruct(
                 cloud["points"], cloud["normals"], depth=args.depth, error=args.error,
                 samples_per_cell=args.samples_per_cell, slabs=args.slabs, address=args.address, workers=args.workers,
+                force=args.force,
             )
             _scanrig.write_mesh(args.out, v, f)
             print(f"{args.out}: {len(v)} vertices, {len(f)} triangles")

@@ -149,9 +149,11 @@ type Mesh<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>, Bound<'p
 /// `tasks` an L×4 array (centre, edge), `grid` and `coarse` dicts, `weights` the samples' area
 /// weights, `layers` each slab's cube layers as (first, end); it returns each slab's (vertices,
 /// triangles) in order, as `_adfft_sweep_slab` makes them. The octree, the coarse χ, the joining
-/// and the clean-up run here (thesis 5.3); the solved leaves never do.
+/// and the clean-up run here (thesis 5.3); the solved leaves never do. The mesh is checked as
+/// `reconstruct`'s is: none, or one far from the points unless `force`, raises `StageError`; what
+/// else is wrong is a `UserWarning`.
 #[pyfunction]
-#[pyo3(signature = (points, normals, run, *, slabs=2, depth=None, error=None, samples_per_cell=None))]
+#[pyo3(signature = (points, normals, run, *, slabs=2, depth=None, error=None, samples_per_cell=None, force=false))]
 #[allow(clippy::too_many_arguments)]
 fn _adfft_slabs<'py>(
     py: Python<'py>,
@@ -162,6 +164,7 @@ fn _adfft_slabs<'py>(
     depth: Option<u32>,
     error: Option<f64>,
     samples_per_cell: Option<f64>,
+    force: bool,
 ) -> PyResult<Mesh<'py>> {
     let xyz = Xyz::extract(points, "points")?;
     let nrm = Xyz::extract(normals, "normals")?;
@@ -215,6 +218,14 @@ fn _adfft_slabs<'py>(
     }
     let (mesh, r) = result.map_err(errors::stage)?;
     let stage_report = ::process::pipeline::stages::ReconstructReport::Adfft(r);
+    // The single process's checks of its mesh (`scanrig.reconstruct`, `scanrig process`): no surface
+    // and a mesh far from its cloud refused (the latter unless `force`), the report's own warnings
+    // given. Without them a distributed mesh was returned in silence whatever it was.
+    let positions = xyz.points();
+    let warnings = py
+        .detach(|| ::process::pipeline::stages::checked_reconstruction(&mesh, &stage_report, positions, force))
+        .map_err(errors::stage)?;
+    errors::warn_each(py, &warnings)?;
     Ok((
         crate::arrays::points_out(py, mesh.vertices),
         crate::arrays::triangles_out(py, &mesh.faces),

@@ -153,13 +153,19 @@ def test_adfft_of_the_bunny_on_two_workers_equals_the_single_process_mesh(cluste
     cloud = scanrig.read_cloud(need(BUNNY / "reconstruction/bun_zipper_res2.ply"))
     fused, _, _ = scanrig.fuse(cloud["points"])
     p, n = fused["points"], fused["normals"]
-    # The full 128³ grid, though these samples carry only a coarser one: leaves enough to spread.
-    v1, f1, r1 = scanrig.reconstruct(p, n, method="adfft", depth=7, samples_per_cell=0)
+    # The full 128³ grid, though these samples carry only a coarser one: leaves enough to spread. The
+    # fit says the grid is finer than the samples (not that the scans disagree).
+    with pytest.warns(UserWarning, match="finer than the samples carry"):
+        v1, f1, r1 = scanrig.reconstruct(p, n, method="adfft", depth=7, samples_per_cell=0)
     assert r1["n"] == 128 and sum(r1["leaves_by_depth"]) > 3
     diagonal = np.linalg.norm(p.max(axis=0) - p.min(axis=0))
     # In two slabs and in three: the solves cut into parts worker to worker, the slabs' meshes joined.
     for slabs in [2, 3]:
-        v2, f2, r2 = distributed.reconstruct(p, n, depth=7, samples_per_cell=0, address=cluster, leaves_per_task=3, slabs=slabs)
+        # The same checks as the single process's, the same warning.
+        with pytest.warns(UserWarning, match="finer than the samples carry"):
+            v2, f2, r2 = distributed.reconstruct(
+                p, n, depth=7, samples_per_cell=0, address=cluster, leaves_per_task=3, slabs=slabs
+            )
         spread = r2["distributed"]
         assert r1["leaves_by_depth"] == r2["leaves_by_depth"] and spread["slabs"] == slabs, spread
         assert f1.shape == f2.shape and np.array_equal(f1, f2)
@@ -168,6 +174,30 @@ def test_adfft_of_the_bunny_on_two_workers_equals_the_single_process_mesh(cluste
         assert np.array_equal(v1, v2), f"vertices differ by up to {gap:.1e} of the diagonal"
         # Only the slabs' meshes came back: about the mesh's own size, not the leaves'.
         assert spread["returned_mb"] < 2 * (v1.nbytes + f1.nbytes) / 1e6, spread
+
+
+def test_a_distributed_mesh_far_from_its_points_is_refused_unless_forced(cluster, tmp_path):
+    # A sphere whose normals point in or out at random: the single process refuses its mesh (most of
+    # it is not in the data); the distributed path had returned it in silence.
+    rng = np.random.default_rng(3)
+    d = rng.normal(size=(6000, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    p, n = 30.0 * d, d * np.where(rng.uniform(size=6000) < 0.5, 1.0, -1.0)[:, None]
+    with pytest.raises(scanrig.StageError, match="lies far from its cloud"):
+        scanrig.reconstruct(p, n, method="adfft", depth=7)
+    with pytest.raises(scanrig.StageError, match="lies far from its cloud"):
+        distributed.reconstruct(p, n, depth=7, address=cluster)
+    # The command line: refused by name and without a traceback, nothing written; kept with --force,
+    # with the warning said as scanrig says its own.
+    src, out = tmp_path / "inside_out.ply", tmp_path / "mesh.ply"
+    scanrig.write_cloud(src, p, n)
+    entry = ["python3", "-m", "scanrig.distributed", "--address", cluster, "reconstruct", src, "-o", out, "--depth", "7"]
+    r = subprocess.run(entry, capture_output=True, text=True)
+    assert r.returncode == 1 and "lies far from its cloud" in r.stderr and "Traceback" not in r.stderr, r.stderr
+    assert not out.exists()
+    r = subprocess.run(entry + ["--force"], capture_output=True, text=True)
+    assert r.returncode == 0 and "warning: the mesh lies far from its cloud" in r.stderr, r.stderr
+    assert out.exists()
 
 
 def test_the_command_line_entry_reconstructs_a_file(cluster, tmp_path):

@@ -186,21 +186,44 @@ impl AdFftReport {
     }
 
     /// What to tell the user when many vertices were further from their samples' plane than the fit
-    /// may move them ([`super::fit`], half a cell): over 5 % of those moved says the indicator's
-    /// surface and the samples disagree — normals turned the wrong way, or scans out of alignment.
-    /// `None` otherwise (the bunny at depth 9: 0.3 %).
+    /// may move them ([`super::fit`], half a cell): over 5 % of those moved. `None` otherwise (the
+    /// bunny at depth 9: 0.3 %). On a grid no finer than the default builds, it says the indicator's
+    /// surface and the samples disagree — normals turned the wrong way, or scans out of alignment. On
+    /// a grid finer than that (`--samples-per-cell 0`, or a sparse cloud at the depth-6 floor), it says so: there
+    /// the surface strays between samples further apart than its cells, and the remedy is the grid
+    /// (bun_zipper_res2's 5,923 fused points forced onto 128³, 0.15 samples per cell: 9.7 % held;
+    /// the default's 64³, 0.60 per cell: 3.7 %).
     pub fn far_from_samples(&self) -> Option<String> {
         let f = &self.fit;
-        (f.moved > 0 && f.limited as Real > 0.05 * f.moved as Real).then(|| {
+        if !(f.moved > 0 && f.limited as Real > 0.05 * f.moved as Real) {
+            return None;
+        }
+        let held = format!(
+            "{:.1} % of the vertices were more than half a cell ({}) from their samples' plane and moved only that far",
+            100.0 * f.limited as Real / f.moved as Real,
+            three_digits(0.5 * self.cell)
+        );
+        let default = AdFftParams::default().samples_per_cell;
+        Some(if self.samples_per_cell > 0.0 && self.samples_per_cell < default {
             format!(
-                "{:.1} % of the vertices were more than half a cell ({:.3}) from their samples' plane and moved only \
-                 that far: the surface and the samples disagree there (normals turned the wrong way, or scans out of \
-                 alignment?)",
-                100.0 * f.limited as Real / f.moved as Real,
-                0.5 * self.cell
+                "{held}: the grid is finer than the samples carry ({:.2} samples per cell on the surface, fewer than \
+                 the default's {default}), so the surface strays between them (a lower --depth keeps it to what the \
+                 samples show)",
+                self.samples_per_cell
+            )
+        } else {
+            format!(
+                "{held}: the surface and the samples disagree there (normals turned the wrong way, or scans out of \
+                 alignment?)"
             )
         })
     }
+}
+
+/// `x` to three significant digits: a half cell of a cloud in metres (0.000291) is not "0.000".
+fn three_digits(x: Real) -> String {
+    let decimals = if x.is_finite() && x != 0.0 { (2 - x.abs().log10().floor() as i32).max(0) as usize } else { 3 };
+    format!("{x:.decimals$}")
 }
 
 /// An octree cell: its centre, edge and depth, and the indices of the points inside it.
@@ -1262,6 +1285,17 @@ mod tests {
         let r = AdFftReport { cell: 0.5, fit: fit(1000, 200), ..Default::default() };
         let why = r.far_from_samples().unwrap();
         assert!(why.contains("20.0 %") && why.contains("(0.250)") && !why.contains("  "), "{why}");
+        assert!(why.contains("scans out of alignment"), "{why}");
+        // On a grid finer than the samples carry, the grid is named and the remedy given, not the scans.
+        let fine = AdFftReport { cell: 0.000_582, samples_per_cell: 0.15, ..r.clone() }.far_from_samples().unwrap();
+        assert!(
+            fine.contains("(0.000291)")
+                && fine.contains("finer than the samples carry (0.15 samples per cell")
+                && fine.contains("a lower --depth")
+                && !fine.contains("alignment")
+                && !fine.contains("  "),
+            "{fine}"
+        );
         assert_eq!(AdFftReport { fit: fit(1000, 3), ..r.clone() }.far_from_samples(), None);
         assert_eq!(AdFftReport { fit: fit(0, 0), ..r }.far_from_samples(), None);
     }

@@ -130,25 +130,63 @@ fn reconstruct_of(
             (m, ReconstructReport::Adfft(r))
         }
     };
-    if mesh.faces.is_empty() {
-        let mut why = "the normals may point inward, or the cloud is spread over a far larger box than the \
-                       object (a stray point far away)"
-            .to_string();
-        // A grid finer than the samples (kept by --samples-per-cell, or at the shallowest depth AdFFT
-        // builds) leaves most cells without a sample, and the blend without a surface: said first,
-        // naming the options.
-        if let ReconstructReport::Adfft(r) = &report
-            && r.samples_per_cell < AdFftParams::default().samples_per_cell
-        {
-            why = format!(
-                "the {}³ grid has {:.2e} samples per surface cell, too few to show one (leave --samples-per-cell \
-                 at its default, or lower --depth); or {why}",
-                r.n, r.samples_per_cell
-            );
-        }
-        return Err(StageError::NoSurface { points: cloud.len(), why });
-    }
+    check_surface(&mesh, &report, cloud.len())?;
     Ok((mesh, report))
+}
+
+/// Refuses a reconstruction that made no surface at all, saying why it may have.
+fn check_surface(mesh: &TriMesh, report: &ReconstructReport, points: usize) -> Result<(), StageError> {
+    if !mesh.faces.is_empty() {
+        return Ok(());
+    }
+    let mut why = "the normals may point inward, or the cloud is spread over a far larger box than the object (a \
+                   stray point far away)"
+        .to_string();
+    // A grid finer than the samples (kept by --samples-per-cell, or at the shallowest depth AdFFT
+    // builds) leaves most cells without a sample, and the blend without a surface: said first,
+    // naming the options.
+    if let ReconstructReport::Adfft(r) = report
+        && r.samples_per_cell < AdFftParams::default().samples_per_cell
+    {
+        why = format!(
+            "the {}³ grid has {:.2e} samples per surface cell, too few to show one (leave --samples-per-cell at \
+             its default, or lower --depth); or {why}",
+            r.n, r.samples_per_cell
+        );
+    }
+    Err(StageError::NoSurface { points, why })
+}
+
+/// What a reconstruction's own report says is wrong with its mesh: AdFFT's self-intersections left
+/// after repair, and a fit that held many vertices at its limit.
+fn report_warnings(report: &ReconstructReport) -> Vec<String> {
+    let ReconstructReport::Adfft(a) = report else { return Vec::new() };
+    let mut warnings = Vec::new();
+    if a.self_intersections.remaining > 0 {
+        warnings.push(format!(
+            "the mesh still intersects itself in {} triangle pairs after repair; slicers may refuse it",
+            a.self_intersections.remaining
+        ));
+    }
+    warnings.extend(a.far_from_samples());
+    warnings
+}
+
+/// The checks [`mesh`] makes of a bare reconstruction, for a mesh reconstructed elsewhere (AdFFT's
+/// slabs on Ray workers, joined by [`crate::reconstruct::adfft::reconstruct_adfft_slabs`]): a mesh
+/// with no surface is refused, one far from its cloud is refused unless `force` ([`check_support`]),
+/// and what the report says is wrong comes back as warnings, as the single process gives them.
+pub fn checked_reconstruction(
+    mesh: &TriMesh,
+    report: &ReconstructReport,
+    positions: &[Point3],
+    force: bool,
+) -> Result<Vec<String>, StageError> {
+    check_surface(mesh, report, positions.len())?;
+    let mut warnings: Vec<String> =
+        check_support(mesh, positions, &PointTree::new(positions), force)?.into_iter().collect();
+    warnings.extend(report_warnings(report));
+    Ok(warnings)
 }
 
 /// What becomes of the reconstructed surface before it is written: its never-seen base, and surface
@@ -468,18 +506,6 @@ fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -
     let colours = mesh_colours(&mesh, input, &tree);
     drop(tree);
     let output = mesh_for_output(&mesh, colours);
-    if let ReconstructReport::Adfft(a) = &reconstructed
-        && a.self_intersections.remaining > 0
-    {
-        warnings.push(format!(
-            "the mesh still intersects itself in {} triangle pairs after repair; slicers may refuse it",
-            a.self_intersections.remaining
-        ));
-    }
-    if let ReconstructReport::Adfft(a) = &reconstructed
-        && let Some(why) = a.far_from_samples()
-    {
-        warnings.push(why);
-    }
+    warnings.extend(report_warnings(&reconstructed));
     Ok(MeshMade { mesh, output, report: MeshReport { reconstruct: reconstructed, finish }, warnings })
 }
