@@ -54,9 +54,11 @@ pub mod remesh;
 
 pub mod pipeline;
 
-/// Every stage's parameter limits, and the `validate` each stage calls first.
+/// Every stage's parameter limits.
 pub mod limits;
 pub use limits::ParamError;
+/// The `validate` each stage calls first, against those limits.
+pub mod validate;
 
 pub mod kd_tree;
 pub mod mesh_distance;

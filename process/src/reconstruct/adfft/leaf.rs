@@ -45,7 +45,7 @@ impl LeafGrid {
         if !((4..=1 << 12).contains(&self.n) && self.h > 0.0 && self.h.is_finite()) {
             return Err(format!("grid of {} points per axis at spacing {}", self.n, self.h));
         }
-        // The same ranges as the library's own entry ([`crate::limits::check_adfft_fields`]): these
+        // The same ranges as the library's own entry ([`AdFftParams::check_fields`](super::AdFftParams::check_fields)): these
         // come from a job handed between machines.
         use crate::limits::{ADFFT_SCALE, ADFFT_SMOOTHING_CELLS};
         if !(ADFFT_SCALE.contains(&self.scale) && ADFFT_SMOOTHING_CELLS.contains(&self.smoothing_cells)) {

@@ -225,7 +225,7 @@ pub(super) fn plan<'a>(
         )));
     }
     // The fields no option sets (the depth above goes to 12 here, for the memory estimate's benches).
-    crate::limits::check_adfft_fields(params).map_err(|e| ReconstructError::Params(e.to_string()))?;
+    params.check_fields().map_err(|e| ReconstructError::Params(e.to_string()))?;
     if !(params.samples_per_cell >= 0.0 && params.samples_per_cell.is_finite()) {
         return Err(ReconstructError::Params(format!(
             "AdFFT's samples per cell must be a number ≥ 0, got {}",

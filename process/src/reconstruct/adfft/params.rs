@@ -1,5 +1,6 @@
 //! AdFFT's settings and its report (with what the report tells the user).
 
+use crate::limits::{ADFFT_SCALE, ADFFT_SMOOTHING_CELLS, ParamError, bad, check_padding};
 use rig::math::Real;
 use serde::Serialize;
 
@@ -74,6 +75,41 @@ impl Default for AdFftParams {
             memory_budget: 8_000_000_000,
             samples_per_cell: 0.25,
         }
+    }
+}
+
+impl AdFftParams {
+    /// AdFFT's settings that no option sets but the library, Python's distributed jobs and the
+    /// benches can: each a number in the range its meaning allows, so a NaN or a support smaller than
+    /// its cell is refused by name before the octree instead of going on into the grid unchecked.
+    /// [`reconstruct_adfft`](super::reconstruct_adfft) checks them itself too, as it checks its depth;
+    /// the stage's `validate` ([`crate::validate`]) calls it with the options' checks. The bounds are
+    /// [`crate::limits`]'.
+    pub fn check_fields(&self) -> Result<(), ParamError> {
+        let p = self;
+        check_padding(p.padding)?;
+        let within = |field: &'static str, x: Real, range: std::ops::RangeInclusive<Real>, why: &str| {
+            if range.contains(&x) {
+                Ok(())
+            } else {
+                Err(bad(field, x, format!("must be from {} to {}: {why}", range.start(), range.end())))
+            }
+        };
+        within("scale", p.scale, ADFFT_SCALE, "a leaf's support must cover its cell (c = 1.8)")?;
+        within("coarse_weight", p.coarse_weight, 0.0..=1.0, "a leaf weighs 1 at its centre")?;
+        within("smoothing_cells", p.smoothing_cells, ADFFT_SMOOTHING_CELLS, "the low-pass in cells")?;
+        within("min_points", p.min_points, 0.0..=0.25, "a fraction of all points")?;
+        within("min_component", p.min_component, 0.0..=1.0, "a fraction of the largest component's area")?;
+        if !(p.test_fraction > 0.0 && p.test_fraction <= 1.0) {
+            return Err(bad("test_fraction", p.test_fraction, "must be a fraction above 0 and at most 1"));
+        }
+        if !(3..=7).contains(&p.test_depth) {
+            return Err(bad("test_depth", p.test_depth, "must be from 3 to 7 (the subdivision test's local grid)"));
+        }
+        if !(2..=8).contains(&p.coarse_depth) {
+            return Err(bad("coarse_depth", p.coarse_depth, "must be from 2 to 8 (the coarse χ's grid)"));
+        }
+        Ok(())
     }
 }
 
