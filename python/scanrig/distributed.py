@@ -159,6 +159,8 @@ def reconstruct(
         raise ValueError(f"leaves_per_task must be at least 1, got {leaves_per_task}")
     if slabs is not None and not 1 <= slabs <= 4096:
         raise ValueError(f"slabs must be 1 to 4096, got {slabs}")
+    if not isinstance(force, bool):
+        raise ValueError(f"force must be True or False, got {force!r}")
     started = connect(address, workers)
     try:
         cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
