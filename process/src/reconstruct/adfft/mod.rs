@@ -42,7 +42,9 @@ use self::leaf::{Samples, solve_leaf};
 use self::octree::{Plan, plan};
 use self::slabs::slab_layers;
 use self::sweep::{ActiveLeaf, extract};
+use crate::reconstruct::global_fft::ReconstructError;
 use crate::reconstruct::marching_cubes::{GridFrame, join_slabs};
+use crate::reconstruct::{fit, prune, self_intersect};
 use rayon::prelude::*;
 use rig::TriMesh;
 use rig::math::Real;
@@ -53,7 +55,7 @@ use std::time::Instant;
 pub fn reconstruct_adfft<'a>(
     cloud: impl Into<rig::CloudRef<'a>>,
     params: &AdFftParams,
-) -> Result<(TriMesh, AdFftReport), crate::reconstruct::global_fft::ReconstructError> {
+) -> Result<(TriMesh, AdFftReport), ReconstructError> {
     reconstruct_adfft_counting(cloud, params, &AtomicUsize::new(0))
 }
 
@@ -63,7 +65,7 @@ pub fn reconstruct_adfft_counting<'a>(
     cloud: impl Into<rig::CloudRef<'a>>,
     params: &AdFftParams,
     planes: &AtomicUsize,
-) -> Result<(TriMesh, AdFftReport), crate::reconstruct::global_fft::ReconstructError> {
+) -> Result<(TriMesh, AdFftReport), ReconstructError> {
     adfft_of(cloud.into(), params, planes)
 }
 
@@ -73,7 +75,7 @@ fn adfft_of(
     cloud: rig::CloudRef<'_>,
     params: &AdFftParams,
     planes: &AtomicUsize,
-) -> Result<(TriMesh, AdFftReport), crate::reconstruct::global_fft::ReconstructError> {
+) -> Result<(TriMesh, AdFftReport), ReconstructError> {
     let plan = plan(cloud, params)?;
     let t = Instant::now();
     let (grid, leaves, coarse) = (plan.grid(params), plan.tasks(), plan.coarse(params));
@@ -111,8 +113,7 @@ pub fn reconstruct_adfft_slabs<'a>(
     params: &AdFftParams,
     slabs: usize,
     sweep_all: impl FnOnce(&SlabJob) -> Result<Vec<TriMesh>, String>,
-) -> Result<(TriMesh, AdFftReport), crate::reconstruct::global_fft::ReconstructError> {
-    use crate::reconstruct::global_fft::ReconstructError;
+) -> Result<(TriMesh, AdFftReport), ReconstructError> {
     let cloud = cloud.into();
     let plan = plan(cloud, params)?;
     let t = Instant::now();
@@ -153,22 +154,12 @@ fn clean(
     mut report: AdFftReport,
     t: Instant,
 ) -> (TriMesh, AdFftReport) {
-    report.components_pruned = crate::reconstruct::prune::prune_small_or_away(
-        &mut mesh,
-        params.min_component,
-        &samples.tree,
-        4.0 * report.cell,
-    );
+    report.components_pruned =
+        prune::prune_small_or_away(&mut mesh, params.min_component, &samples.tree, 4.0 * report.cell);
     let area: Real = samples.weights.iter().sum();
-    let radius = crate::reconstruct::fit::radius(samples.positions.len(), area, report.cell);
-    report.fit = crate::reconstruct::fit::fit_to_samples(
-        &mut mesh,
-        samples.positions,
-        samples.normals,
-        radius,
-        0.5 * report.cell,
-    );
-    report.self_intersections = crate::reconstruct::self_intersect::repair(&mut mesh, 8);
+    let radius = fit::radius(samples.positions.len(), area, report.cell);
+    report.fit = fit::fit_to_samples(&mut mesh, samples.positions, samples.normals, radius, 0.5 * report.cell);
+    report.self_intersections = self_intersect::repair(&mut mesh, 8);
     report.seconds_extract = t.elapsed().as_secs_f64();
     report.vertices = mesh.vertices.len();
     report.triangles = mesh.faces.len();

@@ -7,6 +7,7 @@ use crate::kd_tree::PointTree;
 use crate::reconstruct::global_fft::{
     Cube, FftReport, IndicatorWork, area_weights_in, bounding_cube, indicator, sample,
 };
+use crate::reconstruct::global_fft::{ReconstructError, check_memory, grid_bytes};
 use crate::reconstruct::marching_cubes::{GridFrame, marching_cubes};
 use crate::reconstruct::mesh_distance::MeshDistance;
 use rayon::prelude::*;
@@ -132,7 +133,7 @@ fn estimate_bytes(
         .max()
         .unwrap_or(0);
     let threads = rayon::current_num_threads() as u64;
-    let coarse = crate::reconstruct::global_fft::grid_bytes(coarse_depth);
+    let coarse = grid_bytes(coarse_depth);
     let planes = 4 * 4 * (n as u64) * (n as u64);
     let samples = 96 * points as u64;
     coarse + peak.max(0) as u64 + threads * local + planes + samples + BYTES_PER_TRIANGLE * triangles
@@ -209,11 +210,7 @@ impl Plan<'_> {
 }
 
 /// Checks, the samples' weights and tree, the octree (steps 1–2) and the memory check.
-pub(super) fn plan<'a>(
-    cloud: rig::CloudRef<'a>,
-    params: &AdFftParams,
-) -> Result<Plan<'a>, crate::reconstruct::global_fft::ReconstructError> {
-    use crate::reconstruct::global_fft::ReconstructError;
+pub(super) fn plan<'a>(cloud: rig::CloudRef<'a>, params: &AdFftParams) -> Result<Plan<'a>, ReconstructError> {
     if cloud.is_empty() {
         return Err(ReconstructError::Empty);
     }
@@ -315,13 +312,7 @@ pub(super) fn plan<'a>(
     report.estimated_triangles = (TRIANGLES_PER_AREA_CELL * area / (h * h)).ceil() as u64;
     report.estimated_bytes =
         estimate_bytes(&leaves, &ranges, cloud.len(), n, h, params.coarse_depth.min(depth), report.estimated_triangles);
-    crate::reconstruct::global_fft::check_memory(
-        report.estimated_bytes,
-        n,
-        params.memory_budget,
-        "--method adfft",
-        "lower --depth",
-    )?;
+    check_memory(report.estimated_bytes, n, params.memory_budget, "--method adfft", "lower --depth")?;
 
     Ok(Plan { samples, leaves, ranges, origin, size, h, n, report })
 }

@@ -1,6 +1,8 @@
 //! AdFFT's settings and its report (with what the report tells the user).
 
 use crate::limits::{ADFFT_SCALE, ADFFT_SMOOTHING_CELLS, ParamError, bad, check_padding};
+use crate::reconstruct::fit::FitReport;
+use crate::reconstruct::self_intersect::RepairReport;
 use rig::math::Real;
 use serde::Serialize;
 
@@ -143,10 +145,10 @@ pub struct AdFftReport {
     pub estimated_triangles: u64,
     /// The extracted surface's pull onto its samples ([`crate::reconstruct::fit`]).
     #[serde(default)]
-    pub fit: crate::reconstruct::fit::FitReport,
+    pub fit: FitReport,
     /// Self-intersections where blended leaves folded the surface, and their repair.
     #[serde(default)]
-    pub self_intersections: crate::reconstruct::self_intersect::RepairReport,
+    pub self_intersections: RepairReport,
     /// The error the subdivision aimed for.
     pub error: Real,
     /// Leaves solved (the patches blended), by octree depth.
@@ -250,7 +252,7 @@ mod tests {
     /// A fit that had to stop many vertices at its limit is said; one that moved few that far is not.
     #[test]
     fn a_fit_held_at_its_limit_is_said() {
-        let fit = |moved, limited| crate::reconstruct::fit::FitReport { moved, limited, ..Default::default() };
+        let fit = |moved, limited| FitReport { moved, limited, ..Default::default() };
         let r = AdFftReport { cell: 0.5, fit: fit(1000, 200), ..Default::default() };
         let why = r.far_from_samples().unwrap();
         assert!(why.contains("20.0 %") && why.contains("(0.250)") && !why.contains("  "), "{why}");
