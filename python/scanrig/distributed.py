@@ -159,8 +159,9 @@ def reconstruct(
         raise ValueError(f"leaves_per_task must be at least 1, got {leaves_per_task}")
     if slabs is not None and not 1 <= slabs <= 4096:
         raise ValueError(f"slabs must be 1 to 4096, got {slabs}")
-    if not isinstance(force, bool):
-        raise ValueError(f"force must be True or False, got {force!r}")
+    # As scanrig.reconstruct takes it: a bool (NumPy's too), anything else a TypeError by name.
+    if not isinstance(force, (bool, np.bool_)):
+        raise TypeError(f"force must be True or False, got {force!r}")
     started = connect(address, workers)
     try:
         cpus = max(1, int(ray.cluster_resources().get("CPU", 1)))
@@ -203,7 +204,7 @@ def reconstruct(
             depth=depth,
             error=error,
             samples_per_cell=samples_per_cell,
-            force=force,
+            force=bool(force),
         )
         report["distributed"] = spread
         return v, f, report
@@ -235,7 +236,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     r.add_argument("--slabs", type=int, help="slabs of the sweep (default: one per CPU)")
     r.add_argument("--force", action="store_true", help="keep a mesh far from its points, with a warning")
     args = parser.parse_args(argv)
-    warnings.showwarning = _say
+    # Only for this call: main() run from Python leaves the caller's warning display as it was.
+    with warnings.catch_warnings():
+        warnings.showwarning = _say
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         if args.command == "process":
             reports = process_scans(

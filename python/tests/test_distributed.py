@@ -188,7 +188,7 @@ def test_a_distributed_mesh_far_from_its_points_is_refused_unless_forced(cluster
     with pytest.raises(scanrig.StageError, match="lies far from its cloud"):
         distributed.reconstruct(p, n, depth=7, address=cluster)
     # force is a yes or no, refused by name before any Ray work.
-    with pytest.raises(ValueError, match="force must be True or False"):
+    with pytest.raises(TypeError, match="force must be True or False"):
         distributed.reconstruct(p, n, depth=7, address=cluster, force="yes")
     # The command line keeps it with --force, saying the warning as scanrig says its own (refusals
     # there: the next test).
