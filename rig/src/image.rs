@@ -57,6 +57,8 @@ impl Image8 {
     }
 
     /// The image transposed (row r, column c → row c, column r): a camera mounted on its side.
+    // Compiled in its callers at their opt-level (see `convolve_clamped`).
+    #[inline]
     pub fn transposed(&self) -> Image8 {
         let (w, h, ch) = (self.width as usize, self.height as usize, self.channels as usize);
         let mut data = vec![0u8; self.data.len()];
@@ -70,6 +72,8 @@ impl Image8 {
     }
 
     /// The image mirrored left to right.
+    // Compiled in its callers at their opt-level (see `convolve_clamped`).
+    #[inline]
     pub fn mirrored(&self) -> Image8 {
         let (w, ch) = (self.width as usize, self.channels as usize);
         // Row by row, pixels taken from the row's end: a swap per byte had been 6 % of calibrating
@@ -88,13 +92,17 @@ impl Image8 {
     }
 
     /// The image mirrored top to bottom.
+    // Compiled in its callers at their opt-level (see `convolve_clamped`).
+    #[inline]
     pub fn flipped(&self) -> Image8 {
         let row = self.width as usize * self.channels as usize;
         let data = self.data.chunks_exact(row.max(1)).rev().flatten().copied().collect();
-        Image8 { data, ..self.clone() }
+        Image8 { width: self.width, height: self.height, channels: self.channels, data }
     }
 
     /// The image as `t` turns it: transposed first, then mirrored left–right, then top–bottom.
+    // Compiled in its callers at their opt-level (see `convolve_clamped`).
+    #[inline]
     pub fn transformed(&self, t: &ImageTransform) -> Image8 {
         let mut out = if t.transpose { self.transposed() } else { self.clone() };
         if t.hflip {
@@ -107,6 +115,8 @@ impl Image8 {
     }
 
     /// The frame a camera mounted as `t` says captured, given the turned one: `t` undone, in reverse order.
+    // Compiled in its callers at their opt-level (see `convolve_clamped`).
+    #[inline]
     pub fn untransformed(&self, t: &ImageTransform) -> Image8 {
         let mut out = if t.vflip { self.flipped() } else { self.clone() };
         if t.hflip {
