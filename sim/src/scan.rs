@@ -155,7 +155,13 @@ pub(crate) fn write_view(
         std::fs::write(&path, bytes).map_err(|e| Error::File(rig::Error::io(&path, e)))
     })?;
     if opts.truth {
-        truth::write_view(&out.join(rig::scan_folder::ScanLayout::truth(v)), g, pose, cfg.rig.camera.fx)?;
+        truth::write_view(
+            &out.join(rig::scan_folder::ScanLayout::truth(v)),
+            g,
+            pose,
+            cfg.rig.camera.fx,
+            cfg.rig.projector.is_some(),
+        )?;
     }
     Ok(())
 }

@@ -5,7 +5,7 @@
 //! | `depth.npy` | (H, W) f64 | z of the hit in the camera frame (mm), NaN where nothing is hit |
 //! | `part.npy` | (H, W) u8 | 0 nothing, 1 object, 2 platter, 3 board, 4 other |
 //! | `normal.npy` | (H, W, 3) f32 | unit normal facing the camera, camera frame |
-//! | `projector.npy` | (H, W, 2) f64 | projector (u, v) in px where the projector lights the hit, else NaN |
+//! | `projector.npy` | (H, W, 2) f64 | projector (u, v) in px where the projector lights the hit, else NaN; only for a rig with a projector |
 //! | `lit.npy` | (H, W) u8 | bit 0: projector lights the hit; bit 1 + k: laser k's emitter sees it |
 //! | `laser{k}_centres.npy` | (H, 4) f64 | per row, the sub-pixel columns where laser k's plane crosses the lit surface, NaN-padded |
 //! | `pose.npy` | (4, 4) f64 | camera_from_object of the view: X_cam = pose · X_obj |
@@ -48,8 +48,14 @@ fn f64s(shape: Vec<usize>, v: Vec<f64>) -> NpyArray {
     NpyArray { shape, data: NpyData::F64(v) }
 }
 
-/// Writes a view's truth maps into `dir`.
-pub fn write_view(dir: &Path, g: &ViewGeometry, camera_from_object: &Isometry3, fx: Real) -> Result<(), rig::Error> {
+/// Writes a view's truth maps into `dir`; `projector.npy` only where the rig has a projector (`projector`).
+pub fn write_view(
+    dir: &Path,
+    g: &ViewGeometry,
+    camera_from_object: &Isometry3,
+    fx: Real,
+    projector: bool,
+) -> Result<(), rig::Error> {
     std::fs::create_dir_all(dir).map_err(|e| rig::Error::io(dir, e))?;
     let (w, h) = (g.width, g.height);
     let write = |name: &str, a: NpyArray| rig::npy::write(&dir.join(name), &a);
@@ -57,7 +63,11 @@ pub fn write_view(dir: &Path, g: &ViewGeometry, camera_from_object: &Isometry3, 
     write("part.npy", NpyArray { shape: vec![h, w], data: NpyData::U8(g.kind.clone()) })?;
     let normals = g.normal.iter().flat_map(|n| [n.x as f32, n.y as f32, n.z as f32]).collect();
     write("normal.npy", NpyArray { shape: vec![h, w, 3], data: NpyData::F32(normals) })?;
-    write("projector.npy", f64s(vec![h, w, 2], g.projector.iter().flat_map(|p| [p.x, p.y]).collect()))?;
+    // A laser rig's would be NaN throughout: 16 bytes a pixel (20 MB a view at 1280 × 960) that say
+    // nothing.
+    if projector {
+        write("projector.npy", f64s(vec![h, w, 2], g.projector.iter().flat_map(|p| [p.x, p.y]).collect()))?;
+    }
     let lit = (0..w * h)
         .map(|i| {
             let mut b = u8::from(g.projector_cos[i] > 0.0);

@@ -273,6 +273,12 @@ fn brightest_pixel_of_each_row_sits_on_the_truth_laser_line() {
     )
     .unwrap();
     let m = Manifest::read(&out).unwrap();
+    // A laser rig has no projector: no projector map (it would be NaN throughout), the rest is there.
+    let truth = out.join("truth/view_000");
+    assert!(!truth.join("projector.npy").exists(), "a projector map for a rig without a projector");
+    for t in ["depth.npy", "part.npy", "normal.npy", "lit.npy", "pose.npy", "laser0_centres.npy"] {
+        assert!(truth.join(t).is_file(), "{t} missing");
+    }
     let (w, h) = (1280usize, 960usize);
     let (mut rows, mut good) = (0, 0);
     for (v, view) in m.views.iter().enumerate() {
