@@ -213,6 +213,11 @@ def run(browser, args, summary):
     operator.click("#fault-unplug")
     operator.wait_for_function("() => document.getElementById('scan-status').dataset.state === 'failed'",
                                timeout=STEP_MS)
+    # The scan's state and the job's fault (its reason) are two events in that order: the reason may
+    # land a moment after the state, so wait for it rather than read the messages at once.
+    operator.wait_for_function(
+        "() => [...document.querySelectorAll('#messages div')].some(d => d.textContent.startsWith('scan '))",
+        timeout=STEP_MS)
     summary["fault"] = {"status": operator.inner_text("#scan-status"), "message": operator.inner_text("#messages")}
     tab(operator, "scan")
     shot(operator, args, summary, "fault")
