@@ -774,6 +774,10 @@ pub struct RemeshArgs {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
+    /// Write the quad mesh even when it cannot be right: edges of three faces or holes its input lacks,
+    /// or surface far from it (it is still warned about).
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(clap::Args, Debug)]

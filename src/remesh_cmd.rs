@@ -41,7 +41,12 @@ pub fn run(args: &RemeshArgs) -> Result<()> {
     )
     .with_context(context)?;
     progress.finish();
+    // Checked before anything is written: an unforced implausible remesh leaves no file.
+    let warnings = stages::check_remesh(&mesh, &report, args.force).with_context(context)?;
     rig::write_mesh(&args.out, &quads, &Default::default())?;
+    for w in &warnings {
+        eprintln!("warning: {}: {w}", args.out.display());
+    }
     if let Some(path) = &args.lines {
         let mut r = RemeshReport::default();
         let traced = streamlines(&mesh, &params, &mut r).with_context(context)?;

@@ -192,9 +192,11 @@ fn reconstruct<'py>(
 
 /// Quad remeshing of a triangle mesh (thesis ch. 6): a harmonic field constrained by feature lines,
 /// its streamlines in two families, and the quads they bound. Returns (vertices, faces as a list of
-/// index lists, report).
+/// index lists, report). A remesh that cannot be right (edges of three faces or holes the input
+/// lacks, surface far from it) is a `StageError` unless `force`, which returns it with a `UserWarning`.
 #[pyfunction]
-#[pyo3(signature = (vertices, faces, *, spacing=None, features=None, weight=None))]
+#[pyo3(signature = (vertices, faces, *, spacing=None, features=None, weight=None, force=false))]
+#[allow(clippy::too_many_arguments)]
 fn remesh<'py>(
     py: Python<'py>,
     vertices: &Bound<'py, PyAny>,
@@ -202,6 +204,7 @@ fn remesh<'py>(
     spacing: Option<f64>,
     features: Option<f64>,
     weight: Option<f64>,
+    force: bool,
 ) -> PyResult<Meshed<'py, Vec<Vec<u32>>>> {
     let v = Xyz::extract(vertices, "vertices")?;
     let f = arrays::faces(faces, v.len())?;
@@ -226,7 +229,13 @@ fn remesh<'py>(
         weight: weight.unwrap_or(d.weight),
         ..d
     };
-    let (quads, r) = interruptible(py, move || stages::remesh(&mesh, &params))?.map_err(errors::stage)?;
+    let (quads, r, warnings) = interruptible(py, move || {
+        let (quads, r) = stages::remesh(&mesh, &params)?;
+        let warnings = stages::check_remesh(&mesh, &r, force)?;
+        Ok::<_, stages::StageError>((quads, r, warnings))
+    })?
+    .map_err(errors::stage)?;
+    errors::warn_each(py, &warnings)?;
     let faces: Vec<Vec<u32>> = quads.faces().map(|f| f.to_vec()).collect();
     Ok((arrays::points_out(py, quads.vertices), faces, report(py, &r)?))
 }

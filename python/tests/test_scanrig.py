@@ -99,6 +99,27 @@ def test_remesh_equals_the_cli(tmp_path):
     assert quads > 0.9, quads
 
 
+def test_a_remesh_that_cannot_be_right_raises_unless_forced():
+    # A ring whose tube (radius 0.4) is thinner than the default quads (1.43 apart): the remesh joins
+    # the tube's sides in edges of three faces, which the ring has none of.
+    around, across = 256, 12
+    a = np.repeat(np.arange(around) * 2 * np.pi / around, across)
+    b = np.tile(np.arange(across) * 2 * np.pi / across, around)
+    r = 50 + 0.4 * np.cos(b)
+    vertices = np.stack([r * np.cos(a), r * np.sin(a), 0.4 * np.sin(b)], axis=1)
+    i, j = np.divmod(np.arange(around * across), across)
+    v = lambda i, j: (i % around) * across + j % across  # noqa: E731
+    faces = np.concatenate([np.stack([v(i, j), v(i + 1, j), v(i + 1, j + 1)], axis=1),
+                            np.stack([v(i, j), v(i + 1, j + 1), v(i, j + 1)], axis=1)]).astype(np.int64)
+    with pytest.raises(scanrig.StageError, match="three or more faces where the input has 0"):
+        scanrig.remesh(vertices, faces)
+    with pytest.warns(UserWarning, match="three or more faces"):
+        _, quads, report = scanrig.remesh(vertices, faces, force=True)
+    assert len(quads) == report["quality"]["faces"] > 0
+    _, _, fine = scanrig.remesh(vertices, faces, spacing=0.3)
+    assert fine["quality"]["non_manifold_edges"] == 0
+
+
 def test_icp_recovers_a_known_motion(bunny_fused):
     fused, _, _ = bunny_fused
     p, n = fused["points"], fused["normals"]

@@ -281,3 +281,44 @@ fn a_mesh_far_from_its_cloud_is_refused_unless_forced() {
     let o = scanrig(&[&"reconstruct", &bad, &"-o", &d.join("bad_mesh.ply"), &"--depth", &"7", &"--force"]);
     assert!(o.status.success() && stderr(&o).contains("bad_mesh.ply: the mesh lies far"), "{}", stderr(&o));
 }
+
+/// Plausibility of a quad remesh: a ring whose tube (0.4 across its radius) is thinner than the
+/// default quads (1.43 apart) gets edges of three faces where the input has none — refused, naming
+/// what is wrong and the fix (a smaller --spacing), unless forced; the smaller spacing passes.
+#[test]
+fn a_remesh_that_joins_a_thin_parts_sides_is_refused_unless_forced() {
+    let d = fixtures::temp_dir("bad-remesh");
+    let (major, minor, around, across) = (50.0, 0.4, 256u32, 12u32);
+    let mut mesh = rig::TriMesh::default();
+    for i in 0..around {
+        let a = i as f64 * std::f64::consts::TAU / around as f64;
+        for j in 0..across {
+            let b = j as f64 * std::f64::consts::TAU / across as f64;
+            let r = major + minor * b.cos();
+            mesh.vertices.push(rig::Point3::new(r * a.cos(), r * a.sin(), minor * b.sin()));
+            let (i2, j2) = ((i + 1) % around, (j + 1) % across);
+            let v = |i: u32, j: u32| i * across + j;
+            mesh.faces.push([v(i, j), v(i2, j), v(i2, j2)]);
+            mesh.faces.push([v(i, j), v(i2, j2), v(i, j2)]);
+        }
+    }
+    let input = d.join("ring.ply");
+    rig::ply::write_mesh(&input, &mesh.to_poly(), &Default::default()).unwrap();
+    let out = d.join("ring_quads.obj");
+    let o = scanrig(&[&"remesh", &input, &"-o", &out]);
+    let err = stderr(&o);
+    assert!(
+        !o.status.success()
+            && err.contains("edges shared by three or more faces where the input has 0")
+            && err.contains("--spacing")
+            && err.contains("--force")
+            && err.contains("ring.ply"),
+        "{err}"
+    );
+    assert!(!out.exists(), "an implausible remesh was written");
+    let o = scanrig(&[&"remesh", &input, &"-o", &out, &"--force"]);
+    assert!(o.status.success() && stderr(&o).contains("ring_quads.obj: the quad mesh has"), "{}", stderr(&o));
+    assert!(out.exists());
+    let o = scanrig(&[&"remesh", &input, &"-o", &d.join("fine.obj"), &"--spacing", &"0.3"]);
+    assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
+}

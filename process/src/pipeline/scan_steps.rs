@@ -383,6 +383,7 @@ pub(super) fn remesh_step(
 ) -> Result<(), Error> {
     let (o, params) = (cx.o, cx.params);
     let fp = stages::remesh_fingerprint(&params.remesh).input(mesh.name, mesh.hash);
+    let mut warnings = Vec::new();
     let step = o.step(&[layout::QUADS], fp, Scope::Scan, |fp| {
         let input = match mesh.held.take() {
             Some(m) => m,
@@ -396,9 +397,14 @@ pub(super) fn remesh_step(
             |done, total| progress(Stage::Remesh, done, total),
         )
         .map_err(|source| Error::Stage { stage: Stage::Remesh, source })?;
+        // Checked before it is written: an unforced implausible remesh leaves no quads.
+        let checked = stages::check_remesh(&input, &rr, params.force);
+        warnings = checked.map_err(|source| Error::Stage { stage: Stage::Remesh, source })?;
+        warnings.iter_mut().for_each(|w| *w = format!("{}: {w}", layout::QUADS));
         let hash = o.put(layout::QUADS, &rig::obj::mesh_to_bytes(&quads), fp, &rr)?;
         Ok((quads, hash, rr))
     })?;
+    report.warnings.extend(warnings);
     report.remesh = step.section;
     // PLY as well: Open3D's OBJ reader skips polygons unless asked to triangulate; its PLY reader keeps them.
     let opts = o.opts.clone();

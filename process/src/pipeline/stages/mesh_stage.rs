@@ -318,10 +318,14 @@ pub fn check_support(
     if median <= MAX_MEDIAN_GAP * diagonal {
         return Ok(None);
     }
+    // In the cloud's own units: a scan's are millimetres, but a file given to `reconstruct` may be in
+    // metres (the Stanford scans), where "0.00 mm" would say nothing.
     let what = format!(
-        "the mesh lies far from its cloud: half its vertices are more than {median:.2} mm from any point ({:.1} % of \
-         the cloud's {diagonal:.0} mm diagonal, over {} %)",
+        "the mesh lies far from its cloud: half its vertices are more than {} from any point ({:.1} % of the \
+         cloud's {} diagonal, over {} %; in the cloud's units)",
+        three_digits(median),
         100.0 * median / diagonal,
+        three_digits(diagonal),
         100.0 * MAX_MEDIAN_GAP
     );
     if force {
@@ -333,6 +337,12 @@ pub fn check_support(
                --force keeps it"
             .into(),
     })
+}
+
+/// `x` to three significant digits, whatever its scale (1234 → "1234", 0.0123456 → "0.0123").
+fn three_digits(x: Real) -> String {
+    let decimals = if x > 0.0 && x.is_finite() { (2 - x.log10().floor() as i32).clamp(0, 12) } else { 2 };
+    format!("{x:.*}", decimals as usize)
 }
 
 /// Refuses a cloud with a NaN or infinite position or normal (every later distance would be NaN) or
@@ -508,4 +518,41 @@ fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -
     let output = mesh_for_output(&mesh, colours);
     warnings.extend(report_warnings(&reconstructed));
     Ok(MeshMade { mesh, output, report: MeshReport { reconstruct: reconstructed, finish }, warnings })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The far-mesh check speaks in the cloud's own units: a cloud in metres (the Stanford scans')
+    /// is told its gap in metres, not as "0.00 mm".
+    #[test]
+    fn a_far_mesh_is_told_in_the_clouds_units() {
+        // Points on a 3 cm (0.03 m) circle; a mesh 0.02 m beside them (a third of the diagonal).
+        let positions: Vec<Point3> = (0..200)
+            .map(|k| {
+                let a = k as Real * std::f64::consts::TAU / 200.0;
+                Point3::new(0.03 * a.cos(), 0.03 * a.sin(), 0.0)
+            })
+            .collect();
+        let mesh = TriMesh {
+            vertices: vec![Point3::new(0.0, 0.0, 0.02), Point3::new(0.001, 0.0, 0.02), Point3::new(0.0, 0.001, 0.02)],
+            faces: vec![[0, 1, 2]],
+            ..Default::default()
+        };
+        let tree = PointTree::new(&positions);
+        let e = check_support(&mesh, &positions, &tree, false).unwrap_err().to_string();
+        assert!(e.contains("more than 0.0352 from any point") && e.contains("0.0849 diagonal"), "{e}");
+        assert!(!e.contains(" mm"), "{e}");
+        let forced = check_support(&mesh, &positions, &tree, true).unwrap().unwrap();
+        assert!(forced.ends_with("(--force)"), "{forced}");
+    }
+
+    #[test]
+    fn three_digits_keep_three_significant_digits_at_any_scale() {
+        assert_eq!(three_digits(1234.4), "1234");
+        assert_eq!(three_digits(12.345), "12.3");
+        assert_eq!(three_digits(0.0123456), "0.0123");
+        assert_eq!(three_digits(0.0), "0.00");
+    }
 }
