@@ -321,4 +321,13 @@ fn a_remesh_that_joins_a_thin_parts_sides_is_refused_unless_forced() {
     assert!(out.exists());
     let o = scanrig(&[&"remesh", &input, &"-o", &d.join("fine.obj"), &"--spacing", &"0.3"]);
     assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
+
+    // A piece that gets no quads: the Newell teapot's handle (an open tube of its own) is lost at any
+    // spacing, which the remesh's distance from its input shows (14 quads; exit 0 before).
+    let teapot = fixtures::require!(fixtures::mesh("common-3d-test-models/teapot.obj"));
+    let out = d.join("teapot_quads.obj");
+    let o = scanrig(&[&"remesh", &teapot, &"-o", &out]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("strays") && err.contains("got no quads"), "{err}");
+    assert!(!out.exists());
 }
