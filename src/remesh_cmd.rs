@@ -42,7 +42,7 @@ pub fn run(args: &RemeshArgs) -> Result<()> {
     .with_context(context)?;
     progress.finish();
     // Checked before anything is written: an unforced implausible remesh leaves no file.
-    let warnings = stages::check_remesh(&mesh, &report, args.force).with_context(context)?;
+    let warnings = stages::check_remesh(&report, args.force).with_context(context)?;
     rig::write_mesh(&args.out, &quads, &Default::default())?;
     for w in &warnings {
         eprintln!("warning: {}: {w}", args.out.display());

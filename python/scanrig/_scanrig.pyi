@@ -70,8 +70,11 @@ def remesh(
     spacing: Optional[float] = None,
     features: Optional[float] = None,
     weight: Optional[float] = None,
+    force: bool = False,
 ) -> tuple[_F64, list[list[int]], dict[str, Any]]:
-    """Quad remeshing from a harmonic field (thesis ch. 6): (V, faces, report)."""
+    """Quad remeshing from a harmonic field (thesis ch. 6): (V, faces, report). A remesh that cannot be
+    right (edges of three faces or holes the input lacks, surface over 4 quads from it) raises StageError
+    unless `force`, which returns it with a UserWarning."""
 
 def icp(
     moving: _F64,

@@ -231,7 +231,7 @@ fn remesh<'py>(
     };
     let (quads, r, warnings) = interruptible(py, move || {
         let (quads, r) = stages::remesh(&mesh, &params)?;
-        let warnings = stages::check_remesh(&mesh, &r, force)?;
+        let warnings = stages::check_remesh(&r, force)?;
         Ok::<_, stages::StageError>((quads, r, warnings))
     })?
     .map_err(errors::stage)?;

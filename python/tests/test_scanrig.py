@@ -111,7 +111,7 @@ def test_a_remesh_that_cannot_be_right_raises_unless_forced():
     v = lambda i, j: (i % around) * across + j % across  # noqa: E731
     faces = np.concatenate([np.stack([v(i, j), v(i + 1, j), v(i + 1, j + 1)], axis=1),
                             np.stack([v(i, j), v(i + 1, j + 1), v(i, j + 1)], axis=1)]).astype(np.int64)
-    with pytest.raises(scanrig.StageError, match="three or more faces where the input has 0"):
+    with pytest.raises(scanrig.StageError, match="three or more faces where the input has none"):
         scanrig.remesh(vertices, faces)
     with pytest.warns(UserWarning, match="three or more faces"):
         _, quads, report = scanrig.remesh(vertices, faces, force=True)

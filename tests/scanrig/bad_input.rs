@@ -288,28 +288,13 @@ fn a_mesh_far_from_its_cloud_is_refused_unless_forced() {
 #[test]
 fn a_remesh_that_joins_a_thin_parts_sides_is_refused_unless_forced() {
     let d = fixtures::temp_dir("bad-remesh");
-    let (major, minor, around, across) = (50.0, 0.4, 256u32, 12u32);
-    let mut mesh = rig::TriMesh::default();
-    for i in 0..around {
-        let a = i as f64 * std::f64::consts::TAU / around as f64;
-        for j in 0..across {
-            let b = j as f64 * std::f64::consts::TAU / across as f64;
-            let r = major + minor * b.cos();
-            mesh.vertices.push(rig::Point3::new(r * a.cos(), r * a.sin(), minor * b.sin()));
-            let (i2, j2) = ((i + 1) % around, (j + 1) % across);
-            let v = |i: u32, j: u32| i * across + j;
-            mesh.faces.push([v(i, j), v(i2, j), v(i2, j2)]);
-            mesh.faces.push([v(i, j), v(i2, j2), v(i, j2)]);
-        }
-    }
-    let input = d.join("ring.ply");
-    rig::ply::write_mesh(&input, &mesh.to_poly(), &Default::default()).unwrap();
+    let input = ring(&d, 50.0, 0.4);
     let out = d.join("ring_quads.obj");
     let o = scanrig(&[&"remesh", &input, &"-o", &out]);
     let err = stderr(&o);
     assert!(
         !o.status.success()
-            && err.contains("edges shared by three or more faces where the input has 0")
+            && err.contains("edges shared by three or more faces where the input has none")
             && err.contains("--spacing")
             && err.contains("--force")
             && err.contains("ring.ply"),
@@ -330,4 +315,55 @@ fn a_remesh_that_joins_a_thin_parts_sides_is_refused_unless_forced() {
     let err = stderr(&o);
     assert!(!o.status.success() && err.contains("strays") && err.contains("got no quads"), "{err}");
     assert!(!out.exists());
+}
+
+/// `DIR/ring.ply`: a ring (a torus about z) of radius `major` and tube radius `minor`, 256 × 12 quads
+/// split in two.
+fn ring(dir: &std::path::Path, major: f64, minor: f64) -> std::path::PathBuf {
+    let (around, across) = (256u32, 12u32);
+    let mut mesh = rig::TriMesh::default();
+    for i in 0..around {
+        let a = i as f64 * std::f64::consts::TAU / around as f64;
+        for j in 0..across {
+            let b = j as f64 * std::f64::consts::TAU / across as f64;
+            let r = major + minor * b.cos();
+            mesh.vertices.push(rig::Point3::new(r * a.cos(), r * a.sin(), minor * b.sin()));
+            let (i2, j2) = ((i + 1) % around, (j + 1) % across);
+            let v = |i: u32, j: u32| i * across + j;
+            mesh.faces.push([v(i, j), v(i2, j), v(i2, j2)]);
+            mesh.faces.push([v(i, j), v(i2, j2), v(i, j2)]);
+        }
+    }
+    let path = dir.join("ring.ply");
+    rig::ply::write_mesh(&path, &mesh.to_poly(), &Default::default()).unwrap();
+    path
+}
+
+/// The same check in `process`, and again when it reuses the quads: a thin ring standing on the
+/// platter (its remesh loses a piece, 23 quads away) fails at the remesh; `--force` keeps the quads
+/// with a warning; the next run without `--force` reuses them and fails again rather than passing
+/// them on in silence.
+#[test]
+fn process_refuses_an_implausible_remesh_also_when_it_reuses_one() {
+    let d = fixtures::temp_dir("bad-remesh-process");
+    let object = ring(&d, 40.0, 0.6);
+    let scan = d.join("scan");
+    // A quick scan: 12 views at 640 × 480.
+    let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"sim", &"--mesh", &object, &"-o", &scan];
+    args.extend(
+        ["--up", "y", "--views", "12", "--resolution", "640x480", "-q"]
+            .iter()
+            .map(|a| a as &dyn AsRef<std::ffi::OsStr>),
+    );
+    let o = scanrig(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let refused =
+        |o: &Output| !o.status.success() && stderr(o).contains("remesh: the quad mesh") && stderr(o).contains("strays");
+    let o = scanrig(&[&"process", &scan, &"-q"]);
+    assert!(refused(&o), "{}", stderr(&o));
+    assert!(!scan.join("processed/quads.obj").exists(), "an implausible remesh was written");
+    let o = scanrig(&[&"process", &scan, &"-q", &"--force"]);
+    assert!(o.status.success() && stderr(&o).contains("warning: quads.obj: the quad mesh strays"), "{}", stderr(&o));
+    let o = scanrig(&[&"process", &scan, &"-q"]);
+    assert!(refused(&o), "reused without the check: {}", stderr(&o));
 }

@@ -383,6 +383,11 @@ pub(super) fn remesh_step(
 ) -> Result<(), Error> {
     let (o, params) = (cx.o, cx.params);
     let fp = stages::remesh_fingerprint(&params.remesh).input(mesh.name, mesh.hash);
+    let check = |rr: &crate::remesh::RemeshReport| {
+        let warnings = stages::check_remesh(rr, params.force);
+        let warnings = warnings.map_err(|source| Error::Stage { stage: Stage::Remesh, source })?;
+        Ok::<_, Error>(warnings.into_iter().map(|w| format!("{}: {w}", layout::QUADS)).collect::<Vec<_>>())
+    };
     let mut warnings = Vec::new();
     let step = o.step(&[layout::QUADS], fp, Scope::Scan, |fp| {
         let input = match mesh.held.take() {
@@ -398,12 +403,15 @@ pub(super) fn remesh_step(
         )
         .map_err(|source| Error::Stage { stage: Stage::Remesh, source })?;
         // Checked before it is written: an unforced implausible remesh leaves no quads.
-        let checked = stages::check_remesh(&input, &rr, params.force);
-        warnings = checked.map_err(|source| Error::Stage { stage: Stage::Remesh, source })?;
-        warnings.iter_mut().for_each(|w| *w = format!("{}: {w}", layout::QUADS));
+        warnings = check(&rr)?;
         let hash = o.put(layout::QUADS, &rig::obj::mesh_to_bytes(&quads), fp, &rr)?;
         Ok((quads, hash, rr))
     })?;
+    // Reused, it is checked again from its record: quads a forced run kept are not passed on in
+    // silence by the next run without --force.
+    if let (true, Some(s)) = (step.reused(), &step.section) {
+        warnings = check(&s.report)?;
+    }
     report.warnings.extend(warnings);
     report.remesh = step.section;
     // PLY as well: Open3D's OBJ reader skips polygons unless asked to triangulate; its PLY reader keeps them.

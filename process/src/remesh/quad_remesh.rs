@@ -105,6 +105,12 @@ pub struct Timings {
 pub struct RemeshReport {
     /// Triangles in.
     pub input_faces: usize,
+    /// The input's edges with one face (its holes' rims), what the quads' are checked against.
+    #[serde(default)]
+    pub input_boundary_edges: usize,
+    /// The input's edges with three or more faces.
+    #[serde(default)]
+    pub input_non_manifold_edges: usize,
     /// Edges split by the half-split of fig. 6.5.
     pub split_edges: usize,
     /// Constraint lines followed by contours.
@@ -175,6 +181,8 @@ pub fn remesh_counting(
     let constraint_points: Vec<Vec<Point3>> =
         traced.lines[..traced.constraints].iter().map(|l| l.points.clone()).collect();
     report.quality = measure(mesh, &out, &constraint_points, 0.002 * diag);
+    let before = rig::topology::topology(mesh);
+    (report.input_boundary_edges, report.input_non_manifold_edges) = (before.boundary_edges, before.non_manifold_edges);
     report.quality.singularities =
         vertex_indices(&traced.mesh, &traced.grad).iter().filter(|i| i.is_some_and(|i| i.abs() > 0.5)).count();
     report.seconds.quality = t3.elapsed().as_secs_f64();

@@ -68,25 +68,27 @@ pub fn remesh_counting(
 /// bun_zipper_res4 5.7 (small pieces of its 53 dropped).
 pub const MAX_REMESH_GAP_QUADS: Real = 4.0;
 
-/// What a quad remesh must keep of its input, checked before it is written: no edge shared by three
-/// or more faces where the input has none (two sides of a part thinner than the quads were joined),
-/// no hole in a closed input, nothing farther from the input than [`MAX_REMESH_GAP_QUADS`] quads. An
-/// error unless `force`, else the warnings to give.
-pub fn check_remesh(input: &TriMesh, report: &RemeshReport, force: bool) -> Result<Vec<String>, StageError> {
-    let before = rig::topology::topology(input);
+/// What a quad remesh must keep of its input, checked before it is written (and again from its
+/// record when `process` reuses it): no edge shared by three or more faces where the input has none
+/// (two sides of a part thinner than the quads were joined), no hole in a closed input, nothing
+/// farther from the input than [`MAX_REMESH_GAP_QUADS`] quads. An error unless `force`, else the
+/// warnings to give.
+pub fn check_remesh(report: &RemeshReport, force: bool) -> Result<Vec<String>, StageError> {
     let (q, spacing) = (&report.quality, report.spacing);
     // What is wrong, and what to do about it.
     let mut wrong: Vec<(String, String)> = Vec::new();
     let thin =
         format!("a part thinner than the quads ({spacing:.4e} apart) had its sides joined: give a smaller --spacing");
-    if q.non_manifold_edges > before.non_manifold_edges {
+    // Where the input has such edges already, one of them may become several of the quads' (a
+    // spacing finer than its triangles): only a manifold input is held to a manifold remesh.
+    if report.input_non_manifold_edges == 0 && q.non_manifold_edges > 0 {
         let what = format!(
-            "the quad mesh has {} edges shared by three or more faces where the input has {}",
-            q.non_manifold_edges, before.non_manifold_edges
+            "the quad mesh has {} edges shared by three or more faces where the input has none",
+            q.non_manifold_edges
         );
         wrong.push((what, thin.clone()));
     }
-    if before.boundary_edges == 0 && q.boundary_edges > 0 {
+    if report.input_boundary_edges == 0 && q.boundary_edges > 0 {
         let what = format!("the quad mesh has holes ({} boundary edges) where the input is closed", q.boundary_edges);
         wrong.push((what, thin));
     }
@@ -116,9 +118,43 @@ pub fn check_remesh(input: &TriMesh, report: &RemeshReport, force: bool) -> Resu
 }
 
 /// The remesh stage's code version.
-pub const REMESH: StageCode = StageCode { stage: "remesh", version: 1 };
+/// (2: the report records the input's boundary and non-manifold edges, which the check on reuse
+/// reads.)
+pub const REMESH: StageCode = StageCode { stage: "remesh", version: 2 };
 
 /// What the quad mesh is made from besides its triangle mesh: the remeshing parameters.
 pub fn remesh_fingerprint(params: &RemeshParams) -> Fingerprint {
     Fingerprint::new(REMESH, json!({ "remesh": params }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The check reads only the report (it runs again from a reused step's record): each finding by
+    /// itself, an input that had the same defect excused, and `force` turning refusals into warnings.
+    #[test]
+    fn the_check_reads_the_report_alone() {
+        let mut r = RemeshReport { spacing: 1.0, ..Default::default() };
+        r.quality.hausdorff = 3.9;
+        assert_eq!(check_remesh(&r, false).unwrap(), Vec::<String>::new());
+        r.quality.hausdorff = 4.1;
+        let e = check_remesh(&r, false).unwrap_err().to_string();
+        assert!(e.contains("strays") && e.contains("got no quads") && !e.contains("--spacing"), "{e}");
+        r.quality.hausdorff = 0.5;
+        r.quality.non_manifold_edges = 5;
+        r.quality.boundary_edges = 4;
+        let e = check_remesh(&r, false).unwrap_err().to_string();
+        assert!(
+            e.contains("5 edges shared") && e.contains("holes (4 boundary edges)") && e.contains("--spacing"),
+            "{e}"
+        );
+        assert_eq!(e.matches("--spacing").count(), 1, "one hint for both: {e}");
+        // An input with such edges and holes of its own is not held to a remesh without them.
+        (r.input_non_manifold_edges, r.input_boundary_edges) = (1, 10);
+        assert_eq!(check_remesh(&r, false).unwrap(), Vec::<String>::new());
+        (r.input_non_manifold_edges, r.input_boundary_edges) = (0, 0);
+        let w = check_remesh(&r, true).unwrap();
+        assert!(w.len() == 2 && w.iter().all(|w| w.ends_with("(--force)")), "{w:?}");
+    }
 }
