@@ -140,6 +140,10 @@ fn the_fabscanpi_sample_keeps_nothing_above_the_head() {
     // (to 98 mm here), and the mesh is cut at the volume's top, said in a warning.
     assert!(mesh_top <= top + 2.0 && mesh_top <= 80.0, "mesh vertices up to {mesh_top} mm, top {top}");
     assert!(warning.contains("cut flat there"), "{warning}");
+    // The forced mesh is judged again when the next run reuses it: not passed on in silence.
+    let o = scanrig(&[&"process", &scan, &"--until", &"reconstruct"]);
+    assert!(!o.status.success() && stderr(&o).contains("take more views"), "{}", stderr(&o));
+    assert!(processed.join("mesh.ply").exists(), "the forced run's mesh is kept");
 }
 
 /// Issue 40: a second FabScanPi scan of the object joins the first as its pass 2 (its frames beside

@@ -347,6 +347,16 @@ pub(super) fn mesh_step(
         written = Some(made.output);
         Ok((back, hash, made.report))
     })?;
+    // Reused, it is judged again from its record: a far mesh a forced run kept fails the next run
+    // without --force instead of passing on in silence.
+    if let (true, Some(s)) = (step.reused(), &step.section)
+        && let Some(support) = &s.report.support
+    {
+        let judged = stages::judge_support(support, params.force);
+        let judged = judged
+            .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source: laser_hint(source, method, views) })?;
+        warnings = judged.into_iter().map(|w| format!("{}: {w}", layout::MESH)).collect();
+    }
     report.warnings.extend(warnings);
     report.reconstruct = step.section;
     report.outputs.push(layout::MESH.into());

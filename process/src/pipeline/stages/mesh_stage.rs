@@ -234,6 +234,9 @@ pub struct MeshReport {
     /// Base and trim.
     #[serde(default)]
     pub finish: FinishReport,
+    /// How far the mesh lies from its cloud ([`check_support`]), judged again when the mesh is reused.
+    #[serde(default)]
+    pub support: Option<Support>,
 }
 
 /// How far above the platter the base is cut, in reconstruction cells: above the low-pass's rounding
@@ -296,6 +299,16 @@ pub fn finish(
 /// cluster.
 pub const MAX_MEDIAN_GAP: Real = 0.02;
 
+/// How far a mesh lies from its cloud: what [`check_support`] judges, kept in the mesh's record so
+/// that a mesh `process` reuses is judged again (a forced run's far mesh is not passed on in silence).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Support {
+    /// The median distance from the mesh's vertices (sampled, up to 20,000) to the nearest sample.
+    pub median_gap: Real,
+    /// The cloud's bounding-box diagonal.
+    pub diagonal: Real,
+}
+
 /// The plausibility check of a reconstruction: the median distance from the mesh's vertices
 /// (sampled, up to 20,000) to the nearest of the cloud's `positions` (`tree` is over them). Beyond
 /// [`MAX_MEDIAN_GAP`] of the diagonal: an error unless `force`, else the warning to give.
@@ -305,16 +318,27 @@ pub fn check_support(
     tree: &PointTree,
     force: bool,
 ) -> Result<Option<String>, StageError> {
-    let Some(bounds) = rig::Aabb::of(positions) else { return Ok(None) };
+    support(mesh, positions, tree).map_or(Ok(None), |s| judge_support(&s, force))
+}
+
+/// [`check_support`]'s measurement; `None` for an empty cloud or mesh.
+pub fn support(mesh: &TriMesh, positions: &[Point3], tree: &PointTree) -> Option<Support> {
+    let bounds = rig::Aabb::of(positions)?;
     let diagonal = (bounds.max - bounds.min).norm();
     let step = mesh.vertices.len().div_ceil(20_000).max(1);
     let sampled: Vec<&Point3> = mesh.vertices.iter().step_by(step).collect();
     let mut gaps: Vec<Real> = sampled.par_iter().map(|v| tree.nearest(v).1.sqrt()).collect();
     if gaps.is_empty() {
-        return Ok(None);
+        return None;
     }
     let mid = gaps.len() / 2;
-    let median = *gaps.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    let median_gap = *gaps.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
+    Some(Support { median_gap, diagonal })
+}
+
+/// [`check_support`]'s judgement of a measured (or recorded) [`Support`].
+pub fn judge_support(support: &Support, force: bool) -> Result<Option<String>, StageError> {
+    let Support { median_gap: median, diagonal } = *support;
     if median <= MAX_MEDIAN_GAP * diagonal {
         return Ok(None);
     }
@@ -397,8 +421,9 @@ pub const CLOSE: StageCode = StageCode { stage: "close", version: 1 };
 /// The mesh stage's code version (reconstruction, finish, support check, colours; 2: `--trim-fill`
 /// closes holes by whether the mesh had them before trimming, not by where they lie; 3: the low-pass
 /// and AdFFT's coarse χ computed separably, which moves vertices by rounding; 4: AdFFT's level
-/// evaluated along rows, the same rounding kind, and its grid no finer than the samples carry).
-pub const MESH: StageCode = StageCode { stage: "mesh", version: 4 };
+/// evaluated along rows, the same rounding kind, and its grid no finer than the samples carry; 5: the
+/// record keeps the support check's measurement, which a reused mesh is judged by again).
+pub const MESH: StageCode = StageCode { stage: "mesh", version: 5 };
 
 /// What the closed cloud is made from besides the fused cloud: the closing parameters.
 pub fn close_fingerprint(params: &CloseParams) -> Fingerprint {
@@ -512,12 +537,15 @@ fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -
         ));
     }
     // Checked before anything is written: unforced, an unsupported mesh leaves no mesh file.
-    warnings.extend(check_support(&mesh, input.positions, &tree, params.force)?);
+    let support = support(&mesh, input.positions, &tree);
+    if let Some(s) = &support {
+        warnings.extend(judge_support(s, params.force)?);
+    }
     let colours = mesh_colours(&mesh, input, &tree);
     drop(tree);
     let output = mesh_for_output(&mesh, colours);
     warnings.extend(report_warnings(&reconstructed));
-    Ok(MeshMade { mesh, output, report: MeshReport { reconstruct: reconstructed, finish }, warnings })
+    Ok(MeshMade { mesh, output, report: MeshReport { reconstruct: reconstructed, finish, support }, warnings })
 }
 
 #[cfg(test)]
