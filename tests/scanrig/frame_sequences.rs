@@ -214,4 +214,7 @@ fn process_refuses_a_view_whose_frames_contradict_themselves_unless_forced() {
         serde_json::from_slice(&std::fs::read(scan.join("processed/report.json")).unwrap()).unwrap();
     let warnings = report["warnings"].to_string();
     assert!(warnings.contains(&format!("view 1: {dark} is dark")), "{warnings}");
+    // The forced map is judged again when the next run reuses it: not passed on as a warning.
+    let o = scanrig(&[&"process", &scan, &"--until", &"decode"]);
+    assert!(!o.status.success() && stderr(&o).contains(&format!("{dark} is dark")), "{}", stderr(&o));
 }

@@ -246,6 +246,12 @@ fn decode_step(
     })?;
     made.report.reused &= step.reused();
     if let Some(d) = &step.section {
+        // Reused, a map a forced run kept from contradictory frames fails again without --force,
+        // as it did when it was made, instead of passing on as a warning.
+        if step.reused() && !params.force && d.report.issues.iter().any(|i| i.fatal) {
+            let source = StageError::Decode(decode::DecodeError::Contradictory(d.report.issues.clone()));
+            return Err(Error::View { view: v, stage: Stage::Decode, source });
+        }
         made.warnings.extend(d.report.warnings().into_iter().map(|w| format!("view {v}: {w}")));
     }
     made.report.decode = step.section;
