@@ -87,6 +87,12 @@ impl PolyMesh {
             colors: self.colors.clone(),
             ..PolyMesh::default()
         };
+        // Every edge the faces have: a cut's diagonal that repeats one (the edge of a neighbour, or of
+        // an earlier cut) would be an edge of three faces. Ear clipping from another corner gives other
+        // diagonals; the first start whose diagonals are all new is taken.
+        let key = |a: u32, b: u32| (a.min(b), a.max(b));
+        let mut taken: std::collections::HashSet<(u32, u32)> =
+            self.faces().flat_map(|f| (0..f.len()).map(move |k| key(f[k], f[(k + 1) % f.len()]))).collect();
         let mut cut = 0;
         for f in self.faces() {
             let pts: Vec<Point3> = f.iter().map(|&v| self.vertices[v as usize]).collect();
@@ -95,8 +101,23 @@ impl PolyMesh {
                 continue;
             }
             cut += 1;
-            for t in ear_clip(&pts) {
-                out.push_face(&[f[t[0]], f[t[1]], f[t[2]]]);
+            let n = f.len();
+            let clipped = |r: usize| -> Vec<[u32; 3]> {
+                let turned: Vec<Point3> = (0..n).map(|k| pts[(k + r) % n]).collect();
+                ear_clip(&turned).iter().map(|t| t.map(|k| f[(k + r) % n])).collect()
+            };
+            let diagonals = |tris: &[[u32; 3]]| -> Vec<(u32, u32)> {
+                let side = |a: u32, b: u32| (0..n).any(|k| key(f[k], f[(k + 1) % n]) == key(a, b));
+                let edges = tris.iter().flat_map(|t| [(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]);
+                edges.filter(|&(a, b)| !side(a, b)).map(|(a, b)| key(a, b)).collect()
+            };
+            let tris = (0..n)
+                .map(clipped)
+                .find(|tris| diagonals(tris).iter().all(|d| !taken.contains(d)))
+                .unwrap_or_else(|| clipped(0));
+            taken.extend(diagonals(&tris));
+            for t in tris {
+                out.push_face(&t);
             }
         }
         (out, cut)
@@ -152,5 +173,33 @@ mod tests {
         assert_eq!(cut, 2);
         assert!(out.faces().all(|f| f.len() == 3 || f.len() == 4));
         assert_eq!(out.face_sizes().quads, 1);
+    }
+
+    /// A pentagon cut for readers beside a triangle on a diagonal its first corner's cut takes:
+    /// the cut starts from another corner, so no edge ends up with three faces.
+    #[test]
+    fn a_cut_repeats_no_edge_where_another_start_avoids_it() {
+        let at = |k: u32| {
+            let a = k as Real * std::f64::consts::TAU / 5.0;
+            Point3::new(a.cos(), a.sin(), 0.0)
+        };
+        let mut vertices: Vec<Point3> = (0..5).map(at).collect();
+        vertices.push(Point3::new(0.5, 0.5, 1.0));
+        let uses = |m: &PolyMesh| {
+            let mut n = std::collections::HashMap::new();
+            for f in m.faces() {
+                for k in 0..f.len() {
+                    *n.entry((f[k].min(f[(k + 1) % f.len()]), f[k].max(f[(k + 1) % f.len()]))).or_insert(0) += 1;
+                }
+            }
+            n
+        };
+        // Alone, the pentagon's cut takes the diagonal 1–4.
+        let (alone, _) = PolyMesh::from_faces(vertices.clone(), [vec![0, 1, 2, 3, 4]]).with_readable_faces();
+        assert!(uses(&alone).contains_key(&(1, 4)), "{:?}", alone.indices);
+        // With a triangle on 1–4 it takes others.
+        let (cut, count) = PolyMesh::from_faces(vertices, [vec![0, 1, 2, 3, 4], vec![1, 4, 5]]).with_readable_faces();
+        assert_eq!((count, cut.face_count()), (1, 4));
+        assert!(uses(&cut).values().all(|&n| n <= 2), "{:?}", cut.indices);
     }
 }

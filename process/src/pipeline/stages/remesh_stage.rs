@@ -119,8 +119,8 @@ pub fn check_remesh(report: &RemeshReport, force: bool) -> Result<Vec<String>, S
 
 /// The remesh stage's code version.
 /// (2: the report records the input's boundary and non-manifold edges, which the check on reuse
-/// reads.)
-pub const REMESH: StageCode = StageCode { stage: "remesh", version: 2 };
+/// reads; 3: the cut for readers takes ear-clipping diagonals that repeat no edge where it can.)
+pub const REMESH: StageCode = StageCode { stage: "remesh", version: 3 };
 
 /// What the quad mesh is made from besides its triangle mesh: the remeshing parameters.
 pub fn remesh_fingerprint(params: &RemeshParams) -> Fingerprint {
