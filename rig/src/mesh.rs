@@ -104,6 +104,11 @@ impl Default for PolyMesh {
     }
 }
 
+/// An undirected edge: its two vertices, the smaller first.
+pub fn edge_key(a: u32, b: u32) -> (u32, u32) {
+    (a.min(b), a.max(b))
+}
+
 impl PolyMesh {
     /// Builds a mesh from faces given as index lists.
     pub fn from_faces<F: AsRef<[u32]>>(vertices: Vec<Point3>, faces: impl IntoIterator<Item = F>) -> Self {
@@ -165,14 +170,8 @@ impl PolyMesh {
     /// a non-manifold edge. Faces are only rotated (orientation and geometry stay). Returns the number of
     /// polygons no rotation could clear, left as they were.
     pub fn rotate_faces_for_fans(&mut self) -> usize {
-        use std::collections::HashSet;
-        let key = |a: u32, b: u32| (a.min(b), a.max(b));
-        let mut taken: HashSet<(u32, u32)> = HashSet::new();
-        for f in self.faces() {
-            for k in 0..f.len() {
-                taken.insert(key(f[k], f[(k + 1) % f.len()]));
-            }
-        }
+        let key = edge_key;
+        let mut taken = self.edge_set();
         let mut stuck = 0;
         for fi in 0..self.face_count() {
             let (start, end) = (self.offsets[fi] as usize, self.offsets[fi + 1] as usize);
@@ -192,6 +191,12 @@ impl PolyMesh {
             }
         }
         stuck
+    }
+
+    /// Every edge of the faces, each as [`edge_key`] spells it: what a new diagonal must not repeat
+    /// (an edge of three faces).
+    pub fn edge_set(&self) -> std::collections::HashSet<(u32, u32)> {
+        self.faces().flat_map(|f| (0..f.len()).map(move |k| edge_key(f[k], f[(k + 1) % f.len()]))).collect()
     }
 
     /// The axis-aligned bounding box, `None` without vertices.

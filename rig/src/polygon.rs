@@ -90,9 +90,8 @@ impl PolyMesh {
         // Every edge the faces have: a cut's diagonal that repeats one (the edge of a neighbour, or of
         // an earlier cut) would be an edge of three faces. Ear clipping from another corner gives other
         // diagonals; the first start whose diagonals are all new is taken.
-        let key = |a: u32, b: u32| (a.min(b), a.max(b));
-        let mut taken: std::collections::HashSet<(u32, u32)> =
-            self.faces().flat_map(|f| (0..f.len()).map(move |k| key(f[k], f[(k + 1) % f.len()]))).collect();
+        let key = crate::mesh::edge_key;
+        let mut taken = self.edge_set();
         let mut cut = 0;
         for f in self.faces() {
             let pts: Vec<Point3> = f.iter().map(|&v| self.vertices[v as usize]).collect();
