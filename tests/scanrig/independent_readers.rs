@@ -110,3 +110,26 @@ fn trimesh_opens_every_file_with_scanrig_s_counts_and_quads_stay_manifold() {
         about(&p.join("quads.obj"))["faces"]
     );
 }
+
+/// A remesh of real meshes as trimesh reads it: no edge of three triangles. The cow and the
+/// screwdriver each have convex quads whose both diagonals are already edges (of a neighbour's cut or
+/// a triangle beside them), so any fan from a corner repeated one: their written quads had 4 and 1
+/// such edges before those diagonals were split at their midpoints.
+#[test]
+fn real_meshes_remeshed_have_no_edge_of_three_triangles_in_another_reader() {
+    let d = tempfile::tempdir().unwrap();
+    let mut outs = Vec::new();
+    for name in ["common-3d-test-models/cow.ply", "libigl-tutorial-data/screwdriver.off"] {
+        let input = fixtures::require!(fixtures::data_file(name));
+        let out = d.path().join(format!("{}.obj", outs.len()));
+        ok(scanrig(&[&"remesh", &"-q", &input, &"-o", &out]));
+        outs.push(out);
+    }
+    let Some(seen) = trimesh_describes(&outs) else { return };
+    for (f, name) in outs.iter().zip(["cow", "screwdriver"]) {
+        let t = &seen[f.to_string_lossy().as_ref()];
+        assert!(t.get("error").is_none(), "{name}: {t}");
+        assert_eq!(t["edges_shared_by_more"], 0, "{name}: {t}");
+        assert_eq!(t["edges_shared_by_two"], t["edges"], "{name}: open edges: {t}");
+    }
+}

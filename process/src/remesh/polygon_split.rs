@@ -15,10 +15,14 @@ pub struct SplitStats {
     pub polygons: usize,
     /// Of those, how many were split.
     pub split: usize,
-    /// Faces cut into triangles afterwards so other tools can read them: polygons the split left and
-    /// non-convex quads ([`rig::PolyMesh::with_readable_faces`]).
+    /// Faces cut into triangles afterwards so other tools can read them: polygons the split left,
+    /// non-convex quads, and convex quads whose both diagonals are edges already ([`rig::PolyMesh::with_readable_faces`]).
     #[serde(default)]
     pub cut_for_readers: usize,
+    /// Of those cuts' diagonals, how many were split at their midpoints by a new vertex because
+    /// every way of cutting the face repeated an edge of the mesh (an edge of three faces).
+    #[serde(default)]
+    pub midpoints_for_readers: usize,
 }
 
 /// The sum of |corner angle − 90°| of a quad, in degrees; `None` if a corner is reflex-like

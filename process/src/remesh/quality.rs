@@ -40,7 +40,8 @@ pub struct Quality {
     pub constraint_alignment: Real,
     /// The distance that counts as following a constraint.
     pub alignment_tolerance: Real,
-    /// Output edges with more than two faces.
+    /// Output edges with more than two faces (the remesh stage counts them again on the faces as
+    /// readers triangulate them: a fan from each face's first corner).
     pub non_manifold_edges: usize,
     /// Output edges with one face.
     pub boundary_edges: usize,
@@ -75,15 +76,7 @@ pub fn measure(input: &TriMesh, out: &PolyMesh, constraints: &[Vec<Point3>], tol
     q.mean_angle_error_deg = if corners > 0 { sum / corners as Real } else { 0.0 };
     q.angle_histogram = hist;
 
-    let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
-    for f in out.faces() {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
-        }
-    }
-    q.boundary_edges = uses.values().filter(|&&n| n == 1).count();
-    q.non_manifold_edges = uses.values().filter(|&&n| n > 2).count();
+    (q.boundary_edges, q.non_manifold_edges) = edge_counts(out);
 
     let diag = input.bounding_box().map_or(0.0, |b| (b.max - b.min).norm());
     let tri_out = out.triangulate();
@@ -122,6 +115,17 @@ pub fn measure(input: &TriMesh, out: &PolyMesh, constraints: &[Vec<Point3>], tol
     }
     q.constraint_alignment = alignment(out, constraints, tolerance);
     q
+}
+
+/// How many edges of `mesh` have one face (its boundary) and how many more than two (non-manifold).
+pub fn edge_counts(mesh: &PolyMesh) -> (usize, usize) {
+    let mut uses: HashMap<(u32, u32), u32> = HashMap::new();
+    for f in mesh.faces() {
+        for k in 0..f.len() {
+            *uses.entry(rig::mesh::edge_key(f[k], f[(k + 1) % f.len()])).or_default() += 1;
+        }
+    }
+    (uses.values().filter(|&&n| n == 1).count(), uses.values().filter(|&&n| n > 2).count())
 }
 
 fn mean_edge(m: &TriMesh) -> Real {

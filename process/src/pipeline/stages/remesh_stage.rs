@@ -44,7 +44,9 @@ pub fn remesh_counting(
         });
     }
     // What the splitter leaves of n-gons, and quads that fold, are cut into triangles: readers
-    // (Open3D) refuse non-convex polygons, and a fan folds them. Kept only when asked for.
+    // (Open3D) refuse non-convex polygons, and a fan folds them. Kept only when asked for. Readers
+    // triangulate polygons by fans from the first corner: each is started where that adds no
+    // non-manifold diagonal, or cut with a new vertex where no corner avoids it.
     if params.split_polygons {
         let (readable, cut) = quads.with_readable_faces();
         quads = readable;
@@ -52,11 +54,15 @@ pub fn remesh_counting(
         let q = &mut report.quality;
         (q.faces, q.quads, q.triangles, q.polygons) = (quads.face_count(), sizes.quads, sizes.triangles, sizes.larger);
         q.quad_fraction = sizes.quads as Real / q.faces.max(1) as Real;
-        report.split.cut_for_readers = cut;
+        report.split.cut_for_readers = cut.cut;
+        report.split.midpoints_for_readers = cut.midpoints;
+    } else {
+        quads.rotate_faces_for_fans();
     }
-    // Readers triangulate polygons by fans from the first corner; start each where that adds no
-    // non-manifold diagonal.
-    quads.rotate_faces_for_fans();
+    // The edges as a file's readers will have them (the check below and process's reuse judge
+    // these): what the cut or a fan repeats is an edge of three faces there.
+    let q = &mut report.quality;
+    (q.boundary_edges, q.non_manifold_edges) = crate::remesh::quality::edge_counts(&quads.triangulate().to_poly());
     Ok((quads, report))
 }
 
@@ -92,7 +98,11 @@ pub fn check_remesh(report: &RemeshReport, force: bool) -> Result<Vec<String>, S
         let what = format!("the quad mesh has holes ({} boundary edges) where the input is closed", q.boundary_edges);
         wrong.push((what, thin));
     }
-    if spacing > 0.0 && q.hausdorff > MAX_REMESH_GAP_QUADS * spacing {
+    if !q.hausdorff.is_finite() {
+        // A vertex off in the infinite or a NaN would otherwise pass every comparison below.
+        let what = format!("the quad mesh's distance from its input could not be measured ({})", q.hausdorff);
+        wrong.push((what, "the input or the quads have a vertex that is not a finite number".into()));
+    } else if spacing > 0.0 && q.hausdorff > MAX_REMESH_GAP_QUADS * spacing {
         // The teapot's handle (an open tube, a piece of its own) gets no quads at any spacing.
         let what = format!(
             "the quad mesh strays {:.4e} from the input ({:.1} quads of {spacing:.4e}, over {MAX_REMESH_GAP_QUADS})",
@@ -119,8 +129,10 @@ pub fn check_remesh(report: &RemeshReport, force: bool) -> Result<Vec<String>, S
 
 /// The remesh stage's code version.
 /// (2: the report records the input's boundary and non-manifold edges, which the check on reuse
-/// reads; 3: the cut for readers takes ear-clipping diagonals that repeat no edge where it can.)
-pub const REMESH: StageCode = StageCode { stage: "remesh", version: 3 };
+/// reads; 3: the cut for readers takes ear-clipping diagonals that repeat no edge where it can;
+/// 4: a face no start cuts or fans without repeating an edge has the repeated diagonals split at
+/// their midpoints, and the report's edges are counted as readers triangulate the faces.)
+pub const REMESH: StageCode = StageCode { stage: "remesh", version: 4 };
 
 /// What the quad mesh is made from besides its triangle mesh: the remeshing parameters.
 pub fn remesh_fingerprint(params: &RemeshParams) -> Fingerprint {
@@ -156,5 +168,9 @@ mod tests {
         (r.input_non_manifold_edges, r.input_boundary_edges) = (0, 0);
         let w = check_remesh(&r, true).unwrap();
         assert!(w.len() == 2 && w.iter().all(|w| w.ends_with("(--force)")), "{w:?}");
+        // A distance that is not a number fails every comparison: it is a finding of its own.
+        (r.quality.non_manifold_edges, r.quality.boundary_edges, r.quality.hausdorff) = (0, 0, Real::NAN);
+        let e = check_remesh(&r, false).unwrap_err().to_string();
+        assert!(e.contains("could not be measured (NaN)"), "{e}");
     }
 }
