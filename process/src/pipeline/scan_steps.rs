@@ -348,11 +348,10 @@ pub(super) fn mesh_step(
         Ok((back, hash, made.report))
     })?;
     // Reused, it is judged again from its record: a far mesh a forced run kept fails the next run
-    // without --force instead of passing on in silence.
-    if let (true, Some(s)) = (step.reused(), &step.section)
-        && let Some(support) = &s.report.support
-    {
-        let judged = stages::judge_support(support, params.force);
+    // without --force instead of passing on in silence, and its top cut or open base is warned of
+    // again.
+    if let (true, Some(s)) = (step.reused(), &step.section) {
+        let judged = stages::judge_mesh(&s.report, params.force);
         let judged = judged
             .map_err(|source| Error::Stage { stage: Stage::Reconstruct, source: laser_hint(source, method, views) })?;
         warnings = judged.into_iter().map(|w| format!("{}: {w}", layout::MESH)).collect();

@@ -220,6 +220,9 @@ pub struct FinishReport {
     /// ([`crate::reconstruct::top_cut`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub top: Option<BaseReport>,
+    /// How high the reconstruction rose before that cut (the mesh's units).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rose_to: Option<Real>,
     /// What was not done and why.
     #[serde(default)]
     pub skipped: Vec<String>,
@@ -422,8 +425,9 @@ pub const CLOSE: StageCode = StageCode { stage: "close", version: 1 };
 /// closes holes by whether the mesh had them before trimming, not by where they lie; 3: the low-pass
 /// and AdFFT's coarse χ computed separably, which moves vertices by rounding; 4: AdFFT's level
 /// evaluated along rows, the same rounding kind, and its grid no finer than the samples carry; 5: the
-/// record keeps the support check's measurement, which a reused mesh is judged by again).
-pub const MESH: StageCode = StageCode { stage: "mesh", version: 5 };
+/// record keeps the support check's measurement, which a reused mesh is judged by again; 6: and how
+/// high the reconstruction rose above the working volume's top, for the same).
+pub const MESH: StageCode = StageCode { stage: "mesh", version: 6 };
 
 /// What the closed cloud is made from besides the fused cloud: the closing parameters.
 pub fn close_fingerprint(params: &CloseParams) -> Fingerprint {
@@ -506,19 +510,36 @@ fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -
     let tree = PointTree::new(input.positions);
     let (mesh, reconstructed) = reconstruct_in(input, &params.reconstruct, Some(&tree), steps)?;
     let (mut mesh, mut finish) = finish(mesh, input.positions, &params.finish, params.platter_z, reconstructed.cell())?;
-    let mut warnings = Vec::new();
     if let Some(z) = params.top_z {
         let high = mesh.vertices.iter().map(|p| p.z).fold(Real::NEG_INFINITY, Real::max);
         if let Some((cut, r)) = crate::reconstruct::top_cut::cut_top(&mesh, z)? {
-            // A millimetre of the low-pass's rounding is the reconstruction's own: recorded, not warned of.
-            if high > z + 1.0 {
-                warnings.push(format!(
-                    "the reconstruction rose to {high:.1} mm, above the working volume's top at {z:.1} mm (the \
-                     object's top as the merge found it): cut flat there ({} triangles removed)",
-                    r.removed
-                ));
-            }
-            (mesh, finish.top) = (cut, Some(r));
+            (mesh, finish.top, finish.rose_to) = (cut, Some(r), Some(high));
+        }
+    }
+    let support = support(&mesh, input.positions, &tree);
+    let report = MeshReport { reconstruct: reconstructed, finish, support };
+    // Checked before anything is written: unforced, an unsupported mesh leaves no mesh file.
+    let warnings = judge_mesh(&report, params.force)?;
+    let colours = mesh_colours(&mesh, input, &tree);
+    drop(tree);
+    let output = mesh_for_output(&mesh, colours);
+    Ok(MeshMade { mesh, output, report, warnings })
+}
+
+/// What is wrong with a mesh, from its record alone, so a reused mesh is judged as the run that made
+/// it was: far from its cloud (an error unless `force`, [`judge_support`]), cut at the working
+/// volume's top, a base not cut or not closed, and what the reconstruction's report says.
+pub fn judge_mesh(report: &MeshReport, force: bool) -> Result<Vec<String>, StageError> {
+    let finish = &report.finish;
+    let mut warnings = Vec::new();
+    if let (Some(r), Some(high)) = (&finish.top, finish.rose_to) {
+        // A millimetre of the low-pass's rounding is the reconstruction's own: recorded, not warned of.
+        if high > r.z + 1.0 {
+            warnings.push(format!(
+                "the reconstruction rose to {high:.1} mm, above the working volume's top at {:.1} mm (the object's \
+                 top as the merge found it): cut flat there ({} triangles removed)",
+                r.z, r.removed
+            ));
         }
     }
     if let Some(b) = finish.base.filter(|b| b.outline_edges == 0) {
@@ -536,16 +557,11 @@ fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -
             b.z, b.outline_edges, b.cap_triangles
         ));
     }
-    // Checked before anything is written: unforced, an unsupported mesh leaves no mesh file.
-    let support = support(&mesh, input.positions, &tree);
-    if let Some(s) = &support {
-        warnings.extend(judge_support(s, params.force)?);
+    if let Some(s) = &report.support {
+        warnings.extend(judge_support(s, force)?);
     }
-    let colours = mesh_colours(&mesh, input, &tree);
-    drop(tree);
-    let output = mesh_for_output(&mesh, colours);
-    warnings.extend(report_warnings(&reconstructed));
-    Ok(MeshMade { mesh, output, report: MeshReport { reconstruct: reconstructed, finish, support }, warnings })
+    warnings.extend(report_warnings(&report.reconstruct));
+    Ok(warnings)
 }
 
 #[cfg(test)]
@@ -574,6 +590,37 @@ mod tests {
         assert!(!e.contains(" mm"), "{e}");
         let forced = check_support(&mesh, &positions, &tree, true).unwrap().unwrap();
         assert!(forced.ends_with("(--force)"), "{forced}");
+    }
+
+    /// Every warning a mesh's run gave comes from its record, so a reused mesh gives them again.
+    #[test]
+    fn a_mesh_is_judged_from_its_record_alone() {
+        let mut r = MeshReport {
+            reconstruct: ReconstructReport::Fft(FftReport::default()),
+            finish: FinishReport::default(),
+            support: Some(Support { median_gap: 0.1, diagonal: 100.0 }),
+        };
+        assert_eq!(judge_mesh(&r, false).unwrap(), Vec::<String>::new());
+        // Cut at the working volume's top: warned of beyond the low-pass's millimetre of rounding.
+        r.finish.top = Some(BaseReport { z: 80.0, removed: 12, ..Default::default() });
+        r.finish.rose_to = Some(80.8);
+        assert_eq!(judge_mesh(&r, false).unwrap(), Vec::<String>::new());
+        r.finish.rose_to = Some(86.5);
+        let w = judge_mesh(&r, false).unwrap();
+        assert!(w.len() == 1 && w[0].contains("rose to 86.5 mm") && w[0].contains("12 triangles removed"), "{w:?}");
+        // A base that was not cut, and a flat one that did not close.
+        r.finish.top = None;
+        r.finish.base = Some(BaseReport { base: Base::Flat, z: 0.0, skirt: 1.5, ..Default::default() });
+        let w = judge_mesh(&r, false).unwrap();
+        assert!(w.iter().any(|w| w.contains("does not reach 1.5 mm above the platter")), "{w:?}");
+        r.finish.base =
+            Some(BaseReport { base: Base::Flat, outline_edges: 40, cap_triangles: 30, ..Default::default() });
+        let w = judge_mesh(&r, false).unwrap();
+        assert!(w.len() == 1 && w[0].contains("did not close the mesh (40 outline edges"), "{w:?}");
+        // Far from its cloud: refused unless forced, and then said.
+        r.support = Some(Support { median_gap: 30.0, diagonal: 100.0 });
+        assert!(judge_mesh(&r, false).is_err());
+        assert!(judge_mesh(&r, true).unwrap().iter().any(|w| w.ends_with("(--force)")));
     }
 
     #[test]
