@@ -307,14 +307,19 @@ fn a_remesh_that_joins_a_thin_parts_sides_is_refused_unless_forced() {
     let o = scanrig(&[&"remesh", &input, &"-o", &d.join("fine.obj"), &"--spacing", &"0.3"]);
     assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
 
-    // A piece that gets no quads: the Newell teapot's handle (an open tube of its own) is lost at any
-    // spacing, which the remesh's distance from its input shows (14 quads; exit 0 before).
-    let teapot = fixtures::require!(fixtures::mesh("common-3d-test-models/teapot.obj"));
-    let out = d.join("teapot_quads.obj");
-    let o = scanrig(&[&"remesh", &teapot, &"-o", &out]);
+    // Pieces that get no quads: the coarsest Stanford bunny's small pieces, which the remesh's
+    // distance from its input shows (5.4 quads).
+    let coarse = fixtures::require!(fixtures::mesh("stanford-bunny/reconstruction/bun_zipper_res4.ply"));
+    let out = d.join("coarse_quads.obj");
+    let o = scanrig(&[&"remesh", &coarse, &"-o", &out]);
     let err = stderr(&o);
     assert!(!o.status.success() && err.contains("strays") && err.contains("got no quads"), "{err}");
     assert!(!out.exists());
+    // The Newell teapot, whose patches meet only at their corners, was refused the same way (its
+    // handle got no quads, 14.3 away); each part now keeps its own line graph and boundary.
+    let teapot = fixtures::require!(fixtures::mesh("common-3d-test-models/teapot.obj"));
+    let o = scanrig(&[&"remesh", &teapot, &"-o", &d.join("teapot_quads.obj")]);
+    assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
 }
 
 /// `DIR/ring.ply`: a ring (a torus about z) of radius `major` and tube radius `minor`, 256 × 12 quads

@@ -69,14 +69,16 @@ pub fn quads_from_lines(s: &Surface, lines: &[Line], boundary_lines: &[bool], me
     let mut stats = GraphStats::default();
     let diag = s.mesh.bounding_box().map_or(1.0, |b| (b.max - b.min).norm()).max(Real::MIN_POSITIVE);
     let eps = 1e-7 * diag;
-    let (nodes, visits) = crossings(s, lines, eps);
+    let parts = Parts::of(s);
+    let (index, visits) = crossings(s, &parts, lines, eps);
+    let (nodes, node_part) = (index.nodes, index.part);
     stats.crossings = nodes.len();
     let mut edges = line_edges(lines, visits);
     if merge > 0.0 {
         collapse_short_edges(&nodes, &mut edges, merge);
     }
     drop_doubled_edges(lines, &nodes, &mut edges);
-    let (alive, around, faces) = proper_faces(s, lines, &nodes, &edges, &mut stats);
+    let (alive, around, faces) = proper_faces(s, &node_part, lines, &nodes, &edges, &mut stats);
     let is_corner = corners(&nodes, &edges, &alive, &around);
     let tail = |h: u32| -> u32 {
         let e = edges[(h / 2) as usize];
@@ -116,15 +118,46 @@ pub fn quads_from_lines(s: &Surface, lines: &[Line], boundary_lines: &[bool], me
     (mesh, stats)
 }
 
-/// The graph's nodes, found by position: crossings closer than twice `eps` are one node.
+/// Which part of the mesh each face lies on: faces joined by edges. Parts that share only a vertex
+/// (the Newell teapot's patches meet at their corners) are apart: no line passes from one to the
+/// other, and the edges around a node there would be ordered in two surfaces at once.
+struct Parts(Vec<u32>);
+
+impl Parts {
+    fn of(s: &Surface) -> Self {
+        let mut joined = UnionFind::new(s.mesh.faces.len());
+        let mut first: HashMap<(u32, u32), usize> = HashMap::new();
+        for (f, face) in s.mesh.faces.iter().enumerate() {
+            for k in 0..3 {
+                let (a, b) = (face[k], face[(k + 1) % 3]);
+                match first.entry((a.min(b), a.max(b))) {
+                    std::collections::hash_map::Entry::Occupied(g) => {
+                        joined.union(f, *g.get());
+                    }
+                    std::collections::hash_map::Entry::Vacant(v) => {
+                        v.insert(f);
+                    }
+                }
+            }
+        }
+        Parts((0..s.mesh.faces.len()).map(|f| joined.find(f) as u32).collect())
+    }
+}
+
+/// The graph's nodes, found by position: crossings closer than twice `eps` on the same part of the
+/// mesh ([`Parts`]) are one node, and each node's part. Parts that touch only by position or by a
+/// vertex (the Newell teapot's handle and its lid's patches) keep their own nodes: one shared node
+/// joined the handle's graph to the body's, whose largest component then won the handle's part too,
+/// so the handle got no quads at any spacing.
 struct NodeIndex {
     nodes: Vec<(Point3, Seat)>,
+    part: Vec<u32>,
     at: HashMap<[i64; 3], Vec<u32>>,
     eps: Real,
 }
 
 impl NodeIndex {
-    fn find_or_add(&mut self, p: Point3, seat: Seat) -> u32 {
+    fn find_or_add(&mut self, p: Point3, seat: Seat, part: u32) -> u32 {
         let eps = self.eps;
         let key = [p.x, p.y, p.z].map(|c| (c / (4.0 * eps)).floor() as i64);
         for dx in -1..=1 {
@@ -132,7 +165,7 @@ impl NodeIndex {
                 for dz in -1..=1 {
                     if let Some(ids) = self.at.get(&[key[0] + dx, key[1] + dy, key[2] + dz]) {
                         for &id in ids {
-                            if (self.nodes[id as usize].0 - p).norm() < 2.0 * eps {
+                            if (self.nodes[id as usize].0 - p).norm() < 2.0 * eps && self.part[id as usize] == part {
                                 return id;
                             }
                         }
@@ -141,6 +174,7 @@ impl NodeIndex {
             }
         }
         self.nodes.push((p, seat));
+        self.part.push(part);
         let id = self.nodes.len() as u32 - 1;
         self.at.entry(key).or_default().push(id);
         id
@@ -149,7 +183,7 @@ impl NodeIndex {
 
 /// The lines' crossings, merged by position into nodes, and each line's visits to them in order of
 /// finding; lines ending on a mesh vertex (at a pole of the field) meet there.
-fn crossings(s: &Surface, lines: &[Line], eps: Real) -> (Vec<(Point3, Seat)>, Vec<Vec<Visit>>) {
+fn crossings(s: &Surface, parts: &Parts, lines: &[Line], eps: Real) -> (NodeIndex, Vec<Vec<Visit>>) {
     // Segments per face. Lines along mesh edges are filed under both faces of each edge.
     let mut by_face: HashMap<u32, Vec<(u32, u32)>> = HashMap::new();
     for (i, line) in lines.iter().enumerate() {
@@ -162,7 +196,7 @@ fn crossings(s: &Surface, lines: &[Line], eps: Real) -> (Vec<(Point3, Seat)>, Ve
             }
         }
     }
-    let mut index = NodeIndex { nodes: Vec::new(), at: HashMap::new(), eps };
+    let mut index = NodeIndex { nodes: Vec::new(), part: Vec::new(), at: HashMap::new(), eps };
     let mut visits: Vec<Vec<Visit>> = vec![Vec::new(); lines.len()];
     let mut faces_sorted: Vec<u32> = by_face.keys().copied().collect();
     faces_sorted.sort_unstable();
@@ -190,7 +224,7 @@ fn crossings(s: &Surface, lines: &[Line], eps: Real) -> (Vec<(Point3, Seat)>, Ve
                 };
                 let p = la_.points[ja as usize] + (la_.points[ja as usize + 1] - la_.points[ja as usize]) * sa;
                 let seat = seat_of(s, f, &p, 10.0 * eps);
-                let id = index.find_or_add(p, seat);
+                let id = index.find_or_add(p, seat, parts.0[f as usize]);
                 visits[la as usize].push(Visit { param: ja as Real + sa, node: id });
                 visits[lb as usize].push(Visit { param: jb as Real + sb, node: id });
             }
@@ -200,14 +234,17 @@ fn crossings(s: &Surface, lines: &[Line], eps: Real) -> (Vec<(Point3, Seat)>, Ve
         for (end, v) in line.end_vertices.iter().enumerate() {
             if let Some(v) = v {
                 let p = s.mesh.vertices[*v as usize];
-                let id = index.find_or_add(p, Seat::Vertex(*v));
+                // The line's own part: a vertex may be shared by parts that meet only there.
+                let face = if end == 0 { line.faces.first() } else { line.faces.last() };
+                let Some(&face) = face else { continue };
+                let id = index.find_or_add(p, Seat::Vertex(*v), parts.0[face as usize]);
                 index.nodes[id as usize] = (p, Seat::Vertex(*v));
                 let param = if end == 0 { 0.0 } else { line.faces.len() as Real };
                 visits[i].push(Visit { param, node: id });
             }
         }
     }
-    (index.nodes, visits)
+    (index, visits)
 }
 
 /// Edges between consecutive nodes along each line (a closed line's last back to its first).
@@ -311,6 +348,7 @@ fn drop_doubled_edges(lines: &[Line], nodes: &[(Point3, Seat)], edges: &mut Vec<
 #[allow(clippy::type_complexity)]
 fn proper_faces(
     s: &Surface,
+    node_part: &[u32],
     lines: &[Line],
     nodes: &[(Point3, Seat)],
     edges: &[GraphEdge],
@@ -319,7 +357,7 @@ fn proper_faces(
     let mut alive = vec![true; edges.len()];
     loop {
         prune_dangling(edges, &mut alive, nodes.len());
-        keep_main_components(s, nodes, edges, &mut alive);
+        keep_main_components(node_part, nodes.len(), edges, &mut alive);
         let around = rotations(s, lines, nodes, edges, &alive);
         let faces = trace_faces(edges, &alive, &around);
         let mut face_of = vec![u32::MAX; 2 * edges.len()];
@@ -433,37 +471,27 @@ fn prune_dangling(edges: &[GraphEdge], alive: &mut [bool], nodes: usize) {
     }
 }
 
-/// Keeps, on each connected part of the mesh, only the largest connected part of the graph: a
-/// smaller one would sit inside one of its faces, a face with a hole that no polygon can be.
-fn keep_main_components(s: &Surface, nodes: &[(Point3, Seat)], edges: &[GraphEdge], alive: &mut [bool]) {
-    let mut graph = UnionFind::new(nodes.len());
+/// Keeps, on each connected part of the mesh, only the connected part of the graph with the most
+/// edges there: a smaller one would sit inside one of its faces, a face with a hole that no polygon
+/// can be. Edges are counted on the part their first node lies on, so a component that a line joins
+/// to another part's (a feature line through a vertex where two parts meet, as the Newell teapot's
+/// spout and body do) still counts on each part for what it has there.
+fn keep_main_components(node_part: &[u32], nodes: usize, edges: &[GraphEdge], alive: &mut [bool]) {
+    let mut graph = UnionFind::new(nodes);
     for (k, e) in edges.iter().enumerate() {
         if alive[k] {
             graph.union(e.from as usize, e.to as usize);
         }
     }
-    let mut surface = UnionFind::new(s.mesh.vertices.len());
-    for f in &s.mesh.faces {
-        surface.union(f[0] as usize, f[1] as usize);
-        surface.union(f[1] as usize, f[2] as usize);
-    }
-    let part_of = |seat: Seat, surface: &mut UnionFind| -> usize {
-        let v = match seat {
-            Seat::Face(f) | Seat::Edge(f) => s.mesh.faces[f as usize][0],
-            Seat::Vertex(v) => v,
-        };
-        surface.find(v as usize)
-    };
-    // Edges per graph component, and the biggest component per surface part.
-    let mut size: HashMap<usize, usize> = HashMap::new();
+    // Edges per graph component and surface part, and the biggest component per part.
+    let mut size: HashMap<(u32, usize), usize> = HashMap::new();
     for (k, e) in edges.iter().enumerate() {
         if alive[k] {
-            *size.entry(graph.find(e.from as usize)).or_default() += 1;
+            *size.entry((node_part[e.from as usize], graph.find(e.from as usize))).or_default() += 1;
         }
     }
-    let mut best: HashMap<usize, (usize, usize)> = HashMap::new();
-    for (&root, &n) in &size {
-        let part = part_of(nodes[root].1, &mut surface);
+    let mut best: HashMap<u32, (usize, usize)> = HashMap::new();
+    for (&(part, root), &n) in &size {
         let entry = best.entry(part).or_insert((root, n));
         if n > entry.1 || (n == entry.1 && root < entry.0) {
             *entry = (root, n);

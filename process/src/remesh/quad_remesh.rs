@@ -24,7 +24,7 @@ use rig::union_find::UnionFind;
 use rig::{PolyMesh, TriMesh};
 use serde::Serialize;
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashMap, HashSet};
+use std::collections::{BinaryHeap, HashSet};
 use std::time::Instant;
 
 /// The default streamline spacing as a fraction of the bounding-box diagonal: about 10 000 quads on
@@ -529,35 +529,41 @@ fn path_line(mesh: &TriMesh, faces_of_edge: &EdgeFaces, path: &[usize], family: 
 /// where the boundary turns a corner so the corner is a node of the quad graph.
 fn boundary_lines(s: &Surface) -> Vec<Line> {
     let mesh = s.mesh;
-    // Boundary edge from corner k+1 to k+2 of a face with nothing across edge k.
-    let mut from: HashMap<u32, u32> = HashMap::new();
-    for (f, face) in mesh.faces.iter().enumerate() {
-        for k in 0..3 {
-            if s.across(f as u32, k).is_none() {
-                from.insert(face[(k + 1) % 3], face[(k + 2) % 3]);
+    // A boundary half-edge: edge k of face f (from corner k+1 to corner k+2), nothing across it.
+    let open = |f: u32, k: usize| s.across(f, k).is_none();
+    // The boundary half-edge that follows (f, k): around its head through the faces of its own fan,
+    // so a vertex where two parts' boundaries meet (the Newell teapot's patches at their corners)
+    // passes each loop on in its own part, and no boundary edge is left out.
+    let next = |f: u32, k: usize| -> Option<(u32, usize)> {
+        let head = mesh.faces[f as usize][(k + 2) % 3];
+        let (mut g, mut c) = (f, (k + 2) % 3);
+        for _ in 0..=s.corners_of(head).len() {
+            // The edge leaving the head in g: from corner c to corner c+1, edge c+2.
+            let m = (c + 2) % 3;
+            if open(g, m) {
+                return Some((g, m));
             }
+            let (h, _) = s.across(g, m)?;
+            g = h;
+            c = (0..3).find(|&j| mesh.faces[g as usize][j] == head)?;
         }
-    }
+        None
+    };
+    let mut used: HashSet<(u32, usize)> = HashSet::new();
     let faces_of_edge = EdgeFaces::new(mesh);
-    let mut starts: Vec<u32> = from.keys().copied().collect();
-    starts.sort_unstable();
-    let mut used: HashSet<u32> = HashSet::new();
     let mut lines = Vec::new();
-    for start in starts {
-        if used.contains(&start) {
+    for (f, k) in (0..mesh.faces.len() as u32).flat_map(|f| (0..3).map(move |k| (f, k))) {
+        if !open(f, k) || used.contains(&(f, k)) {
             continue;
         }
-        let mut path = vec![start as usize];
-        let mut v = start;
-        while let Some(&w) = from.get(&v) {
-            if !used.insert(v) {
+        let mut path = vec![mesh.faces[f as usize][(k + 1) % 3] as usize];
+        let mut h = Some((f, k));
+        while let Some((g, m)) = h {
+            if !used.insert((g, m)) {
                 break;
             }
-            path.push(w as usize);
-            v = w;
-            if v == start {
-                break;
-            }
+            path.push(mesh.faces[g as usize][(m + 2) % 3] as usize);
+            h = next(g, m);
         }
         for piece in split_at_turns(mesh, &path, 50.0) {
             lines.extend(path_line(mesh, &faces_of_edge, &piece, Family::Contour));

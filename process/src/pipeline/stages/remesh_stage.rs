@@ -68,10 +68,10 @@ pub fn remesh_counting(
 
 /// How far, in quads, the quad mesh may stray from its input before it cannot be right: a quad's
 /// corners lie on the input, so only a quad spanning a thin part or a gap strays a whole quad. The
-/// meshes in `../shared/data` at the default spacing (1 % of the diagonal): 24 of 26 stray 0.2–2.8
-/// quads (fandisk 0.2, armadillo 1.0, the beetle's and the coarse bunny's open pieces 2.7–2.8);
-/// the Newell teapot 14.3 (its handle, an open tube of its own, gets no quads at any spacing) and
-/// bun_zipper_res4 5.7 (small pieces of its 53 dropped).
+/// meshes in `../shared/data` at the default spacing (1 % of the diagonal): 25 of 26 stray 0.2–3.1
+/// quads (fandisk 0.2, armadillo 1.0, the beetle's and the coarse bunnies' open pieces 2.5–2.7, the
+/// Newell teapot's knob, four patches a few quads across, 3.1); bun_zipper_res4 5.4 (small pieces of
+/// its 53 dropped).
 pub const MAX_REMESH_GAP_QUADS: Real = 4.0;
 
 /// What a quad remesh must keep of its input, checked before it is written (and again from its
@@ -103,7 +103,7 @@ pub fn check_remesh(report: &RemeshReport, force: bool) -> Result<Vec<String>, S
         let what = format!("the quad mesh's distance from its input could not be measured ({})", q.hausdorff);
         wrong.push((what, "the input or the quads have a vertex that is not a finite number".into()));
     } else if spacing > 0.0 && q.hausdorff > MAX_REMESH_GAP_QUADS * spacing {
-        // The teapot's handle (an open tube, a piece of its own) gets no quads at any spacing.
+        // The coarsest Stanford bunny's small pieces get no quads.
         let what = format!(
             "the quad mesh strays {:.4e} from the input ({:.1} quads of {spacing:.4e}, over {MAX_REMESH_GAP_QUADS})",
             q.hausdorff,
@@ -131,8 +131,9 @@ pub fn check_remesh(report: &RemeshReport, force: bool) -> Result<Vec<String>, S
 /// (2: the report records the input's boundary and non-manifold edges, which the check on reuse
 /// reads; 3: the cut for readers takes ear-clipping diagonals that repeat no edge where it can;
 /// 4: a face no start cuts or fans without repeating an edge has the repeated diagonals split at
-/// their midpoints, and the report's edges are counted as readers triangulate the faces.)
-pub const REMESH: StageCode = StageCode { stage: "remesh", version: 4 };
+/// their midpoints, and the report's edges are counted as readers triangulate the faces; 5: parts of
+/// the mesh that meet only at a vertex keep their own line graphs and boundary loops.)
+pub const REMESH: StageCode = StageCode { stage: "remesh", version: 5 };
 
 /// What the quad mesh is made from besides its triangle mesh: the remeshing parameters.
 pub fn remesh_fingerprint(params: &RemeshParams) -> Fingerprint {
