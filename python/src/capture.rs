@@ -373,8 +373,8 @@ fn laser_line<'py>(
         stages::laser_line(&frames, &r.camera, (laser, &r.lasers[laser]), windows.as_ref(), &params)
             .map(|(line, rep)| (line, rep, warnings))
     })?
-    .map_err(errors::stage)?;
-    errors::warn_each(py, &warnings)?;
+    .map_err(errors::stage_as(&["force"]))?;
+    errors::warn_each_as(py, &warnings, &["force"])?;
     let d = PyDict::new(py);
     let pixels: Vec<f32> = line.pixels.iter().flatten().copied().collect();
     let n = line.points.len();

@@ -216,7 +216,7 @@ fn _adfft_slabs<'py>(
     if let Some(e) = raised {
         return Err(e);
     }
-    let (mesh, r) = result.map_err(errors::stage)?;
+    let (mesh, r) = result.map_err(errors::stage_as(&["force", "depth", "samples-per-cell"]))?;
     let stage_report = ::process::pipeline::stages::ReconstructReport::Adfft(r);
     // The single process's checks of its mesh (`scanrig.reconstruct`, `scanrig process`): no surface
     // and a mesh far from its cloud refused (the latter unless `force`), the report's own warnings
@@ -224,8 +224,8 @@ fn _adfft_slabs<'py>(
     let positions = xyz.points();
     let warnings = py
         .detach(|| ::process::pipeline::stages::checked_reconstruction(&mesh, &stage_report, positions, force))
-        .map_err(errors::stage)?;
-    errors::warn_each(py, &warnings)?;
+        .map_err(errors::stage_as(&["force", "depth", "samples-per-cell"]))?;
+    errors::warn_each_as(py, &warnings, &["force", "depth", "samples-per-cell"])?;
     Ok((
         crate::arrays::points_out(py, mesh.vertices),
         crate::arrays::triangles_out(py, &mesh.faces),

@@ -203,9 +203,7 @@ fn register_views<'py>(
         let warnings = rep.check(&params.tolerance, force)?;
         Ok::<_, stages::StageError>((cloud, poses, (rep, warnings)))
     })?
-    .map_err(errors::stage)?;
-    for w in &rep.1 {
-        py.import("warnings")?.call_method1("warn", (w.as_str(),))?;
-    }
+    .map_err(errors::stage_as(&["force"]))?;
+    errors::warn_each_as(py, &rep.1, &["force"])?;
     Ok((crate::stages::cloud_out(py, cloud)?, crate::stages::report(py, &poses)?, crate::stages::report(py, &rep.0)?))
 }

@@ -184,11 +184,17 @@ fn reconstruct<'py>(
         let cloud = rig::CloudRef { normals: Some(normal_rows.vectors()), ..rig::CloudRef::positions(rows.points()) };
         stages::mesh(cloud, &mp)
     })?
-    .map_err(errors::stage)?;
-    errors::warn_each(py, &made.warnings)?;
+    .map_err(errors::stage_as(RECONSTRUCT_KEYWORDS))?;
+    errors::warn_each_as(py, &made.warnings, RECONSTRUCT_KEYWORDS)?;
     let mesh = made.mesh;
     Ok((arrays::points_out(py, mesh.vertices), arrays::triangles_out(py, &mesh.faces), report(py, &made.report)?))
 }
+
+/// The command line's options that `reconstruct`'s keyword arguments set, as its hints name them.
+const RECONSTRUCT_KEYWORDS: &[&str] =
+    &["force", "method", "depth", "samples-per-cell", "memory-budget", "base", "trim"];
+/// The same for `remesh`.
+const REMESH_KEYWORDS: &[&str] = &["force", "spacing", "features", "weight"];
 
 /// Quad remeshing of a triangle mesh (thesis ch. 6): a harmonic field constrained by feature lines,
 /// its streamlines in two families, and the quads they bound. Returns (vertices, faces as a list of
@@ -234,8 +240,8 @@ fn remesh<'py>(
         let warnings = stages::check_remesh(&r, force)?;
         Ok::<_, stages::StageError>((quads, r, warnings))
     })?
-    .map_err(errors::stage)?;
-    errors::warn_each(py, &warnings)?;
+    .map_err(errors::stage_as(REMESH_KEYWORDS))?;
+    errors::warn_each_as(py, &warnings, REMESH_KEYWORDS)?;
     let faces: Vec<Vec<u32>> = quads.faces().map(|f| f.to_vec()).collect();
     Ok((arrays::points_out(py, quads.vertices), faces, report(py, &r)?))
 }
@@ -370,6 +376,6 @@ fn process_scan<'py>(
     };
     let params = ::process::pipeline::ProcessParams { force, until, views, ..Default::default() };
     let r = interruptible(py, move || ::process::pipeline::process_scan(&scan, &out, &params, |_, _, _| {}))?
-        .map_err(errors::stage)?;
+        .map_err(errors::stage_as(&["force"]))?;
     report(py, &r)
 }

@@ -85,6 +85,12 @@ def test_reconstruct_equals_the_cli_and_is_near_the_zippered_surface(tmp_path, b
     sample = truth[:: max(1, len(truth) // 2000)]
     d = np.sqrt(((sample[:, None, :] - v[None, :: max(1, len(v) // 4000), :]) ** 2).sum(-1)).min(axis=1)
     assert np.median(d) < 2 * cell, (np.median(d), cell)
+    # A refusal names this function's arguments where the command line's names its options.
+    with pytest.raises(scanrig.StageError, match="over the") as refused:
+        scanrig.reconstruct(fused["points"], fused["normals"], depth=9, memory_budget_gb=0.05)
+    said = str(refused.value)
+    assert "(memory_budget_gb)" in said and "lower depth" in said and "method='adfft'" in said, said
+    assert "--" not in said, said
 
 
 def test_remesh_equals_the_cli(tmp_path):
@@ -111,9 +117,12 @@ def test_a_remesh_that_cannot_be_right_raises_unless_forced():
     v = lambda i, j: (i % around) * across + j % across  # noqa: E731
     faces = np.concatenate([np.stack([v(i, j), v(i + 1, j), v(i + 1, j + 1)], axis=1),
                             np.stack([v(i, j), v(i + 1, j + 1), v(i, j + 1)], axis=1)]).astype(np.int64)
-    with pytest.raises(scanrig.StageError, match="three or more faces where the input has none"):
+    with pytest.raises(scanrig.StageError, match="three or more faces where the input has none") as refused:
         scanrig.remesh(vertices, faces)
-    with pytest.warns(UserWarning, match="three or more faces"):
+    # The hint names this function's arguments, not the command line's options.
+    said = str(refused.value)
+    assert "give a smaller spacing" in said and "force=True keeps" in said and "--" not in said, said
+    with pytest.warns(UserWarning, match=r"three or more faces.*\(force=True\)"):
         _, quads, report = scanrig.remesh(vertices, faces, force=True)
     assert len(quads) == report["quality"]["faces"] > 0
     _, _, fine = scanrig.remesh(vertices, faces, spacing=0.3)
