@@ -82,7 +82,8 @@ def test_the_mesh_keywords_are_checked_by_name():
         with pytest.raises(scanrig.ScanrigError, match=name):
             scanrig.reconstruct(pts, pts, depth=5, **{name: float("nan")})
     for bad in (-1.0, float("nan"), 1e9):
-        with pytest.raises(scanrig.ScanrigError, match="samples-per-cell"):
+        # Said as this function spells it (`samples_per_cell=-1`), not as the command line does.
+        with pytest.raises(scanrig.ScanrigError, match="samples_per_cell="):
             scanrig.reconstruct(pts, pts, method="adfft", depth=6, samples_per_cell=bad)
     with pytest.raises(ValueError, match="samples_per_cell adapts AdFFT"):
         scanrig.reconstruct(pts, pts, depth=5, samples_per_cell=1.0)
