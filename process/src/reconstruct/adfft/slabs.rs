@@ -84,7 +84,7 @@ pub fn slab_part(solved: &SolvedLeaf, layers: &Range<usize>, n: usize) -> Option
 /// One slab of a distributed sweep: marching cubes over the blend (eqs. 5.19–5.20) of `layers`,
 /// from the parts of every leaf whose support reaches them (`(id, part)`: the leaf's index in
 /// [`SlabJob::tasks`] and [`slab_part`] of its solve) and the coarse χ. A part that does not fit
-/// the grid is refused, naming the leaf.
+/// the grid, lies beyond the slab's planes or comes twice is refused, naming the leaf.
 pub fn sweep_slab(
     mut parts: Vec<(usize, SolvedLeaf)>,
     coarse: &CoarseChi,
@@ -96,11 +96,23 @@ pub fn sweep_slab(
     if coarse.n == 0 || coarse.values.len() != coarse.n.pow(3) {
         return Err(format!("coarse χ of {} values for {}³ points", coarse.values.len(), coarse.n));
     }
+    // The planes this slab reads ([`slab_part`] cuts each leaf to them).
+    let (first, last) = (layers.start.saturating_sub(1), (layers.end + 1).min(n - 1));
+    let mut seen = std::collections::HashSet::new();
     for (id, p) in &parts {
         let fits = (0..3).all(|d| p.dims[d] > 0 && p.lo[d] + p.dims[d] <= n && p.weight[d].len() == p.dims[d])
             && p.values.len() == p.dims.iter().product::<usize>();
         if !fits {
             return Err(format!("leaf {id}: its part does not fit the grid"));
+        }
+        // Parts handed between machines: one of another slab, or a leaf's twice, would be blended
+        // into this slab's surface without a sign.
+        let (a, b) = (p.lo[2], p.lo[2] + p.dims[2] - 1);
+        if a < first || b > last {
+            return Err(format!("leaf {id}: its part (planes {a}–{b}) is not this slab's (planes {first}–{last})"));
+        }
+        if !seen.insert(*id) {
+            return Err(format!("leaf {id}: its part came twice"));
         }
     }
     parts.sort_by_key(|(id, p)| (p.lo[2], *id));
@@ -130,5 +142,27 @@ mod tests {
             assert!(layers.iter().all(|l| !l.is_empty()) && layers.windows(2).all(|w| w[0].end == w[1].start));
         }
         assert_eq!(slab_layers(&ranges, 32, 2).len(), 2);
+    }
+
+    /// Parts come from other machines: a part of another slab or a leaf's part twice is refused,
+    /// naming the leaf, where it would have been blended in silence.
+    #[test]
+    fn a_slab_refuses_parts_that_are_not_its_own() {
+        let n = 16;
+        let grid = LeafGrid { origin: [0.0; 3], h: 1.0, n, scale: 2.0, smoothing_cells: 1.0 };
+        let coarse = CoarseChi { n: 4, values: vec![0.5; 64], iso: 0.5, weight: 0.1 };
+        let leaf = SolvedLeaf {
+            lo: [2, 2, 0],
+            dims: [4, 4, 16],
+            values: vec![0.25; 4 * 4 * 16],
+            weight: [vec![1.0; 4], vec![1.0; 4], vec![1.0; 16]],
+        };
+        let (low, high) = (0..7, 7..15);
+        let part = |layers: &Range<usize>| slab_part(&leaf, layers, n).unwrap();
+        assert!(sweep_slab(vec![(3, part(&low))], &coarse, &grid, low.clone()).is_ok());
+        let e = sweep_slab(vec![(3, part(&high))], &coarse, &grid, low.clone()).unwrap_err();
+        assert!(e.contains("leaf 3") && e.contains("not this slab's"), "{e}");
+        let e = sweep_slab(vec![(3, part(&low)), (3, part(&low))], &coarse, &grid, low).unwrap_err();
+        assert!(e.contains("leaf 3: its part came twice"), "{e}");
     }
 }
