@@ -87,8 +87,11 @@ pub fn keywords(text: &str, names: &[&str]) -> String {
         // Its value, where one follows: a number, or one of the command line's words.
         let Some(next) = rest.strip_prefix(' ') else { continue };
         let len = next.find(|c: char| c.is_whitespace() || matches!(c, ',' | ';' | ')' | ':')).unwrap_or(next.len());
+        // A sentence's full stop is not the value's.
+        let len = if next[..len].ends_with('.') { len - 1 } else { len };
         let value = &next[..len];
-        if value.parse::<f64>().is_ok() {
+        // Finite numbers only: Python spells NaN and infinity otherwise.
+        if value.parse::<f64>().is_ok_and(|v| v.is_finite()) {
             out.push_str(&format!("={value}"));
         } else if WORDS.contains(&value) {
             out.push_str(&format!("='{value}'"));

@@ -83,8 +83,11 @@ def test_the_mesh_keywords_are_checked_by_name():
             scanrig.reconstruct(pts, pts, depth=5, **{name: float("nan")})
     for bad in (-1.0, float("nan"), 1e9):
         # Said as this function spells it (`samples_per_cell=-1`), not as the command line does.
-        with pytest.raises(scanrig.ScanrigError, match="samples_per_cell="):
+        with pytest.raises(scanrig.ScanrigError, match="samples_per_cell") as refused:
             scanrig.reconstruct(pts, pts, method="adfft", depth=6, samples_per_cell=bad)
+        assert "--" not in str(refused.value), refused.value
+        if bad == -1.0:
+            assert "samples_per_cell=-1:" in str(refused.value), refused.value
     with pytest.raises(ValueError, match="samples_per_cell adapts AdFFT"):
         scanrig.reconstruct(pts, pts, depth=5, samples_per_cell=1.0)
 

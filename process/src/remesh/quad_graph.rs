@@ -471,11 +471,11 @@ fn prune_dangling(edges: &[GraphEdge], alive: &mut [bool], nodes: usize) {
     }
 }
 
-/// Keeps, on each connected part of the mesh, only the connected part of the graph with the most
-/// edges there: a smaller one would sit inside one of its faces, a face with a hole that no polygon
-/// can be. Edges are counted on the part their first node lies on, so a component that a line joins
-/// to another part's (a feature line through a vertex where two parts meet, as the Newell teapot's
-/// spout and body do) still counts on each part for what it has there.
+/// Keeps, on each connected part of the mesh, only the edges of the connected part of the graph
+/// with the most edges there: a smaller one would sit inside one of its faces, a face with a hole
+/// that no polygon can be. Edges belong to the part their first node lies on, so a component that a
+/// line joins to another part's (a feature line through a vertex where two parts meet, as the
+/// Newell teapot's spout and body do) is judged on each part by what it has there.
 fn keep_main_components(node_part: &[u32], nodes: usize, edges: &[GraphEdge], alive: &mut [bool]) {
     let mut graph = UnionFind::new(nodes);
     for (k, e) in edges.iter().enumerate() {
@@ -497,9 +497,9 @@ fn keep_main_components(node_part: &[u32], nodes: usize, edges: &[GraphEdge], al
             *entry = (root, n);
         }
     }
-    let keep: std::collections::HashSet<usize> = best.values().map(|&(root, _)| root).collect();
     for (k, e) in edges.iter().enumerate() {
-        if alive[k] && !keep.contains(&graph.find(e.from as usize)) {
+        if alive[k] && best.get(&node_part[e.from as usize]).map(|&(root, _)| root) != Some(graph.find(e.from as usize))
+        {
             alive[k] = false;
         }
     }

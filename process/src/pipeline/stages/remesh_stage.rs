@@ -60,9 +60,11 @@ pub fn remesh_counting(
         quads.rotate_faces_for_fans();
     }
     // The edges as a file's readers will have them (the check below and process's reuse judge
-    // these): what the cut or a fan repeats is an edge of three faces there.
+    // these): what the cut or a fan repeats is an edge of three faces there. Polygons kept on
+    // purpose (--keep-polygons) are counted as the polygons they are.
     let q = &mut report.quality;
-    (q.boundary_edges, q.non_manifold_edges) = crate::remesh::quality::edge_counts(&quads.triangulate().to_poly());
+    let counted = if params.split_polygons { quads.triangulate().to_poly() } else { quads.clone() };
+    (q.boundary_edges, q.non_manifold_edges) = crate::remesh::quality::edge_counts(&counted);
     Ok((quads, report))
 }
 
