@@ -118,8 +118,11 @@ impl PolyMesh {
                 let turned: Vec<Point3> = (0..n).map(|k| pts[(k + r) % n]).collect();
                 ear_clip(&turned).iter().map(|t| t.map(|k| f[(k + r) % n])).collect()
             };
-            let start = (0..n).find(|&r| diagonals(&from(r)).iter().all(|d| !taken.contains(d)));
-            let mut tris = from(start.unwrap_or(0));
+            let found = (0..n).map(|r| (r, from(r))).find(|(_, t)| diagonals(t).iter().all(|d| !taken.contains(d)));
+            let (start, mut tris) = match found {
+                Some((r, t)) => (Some(r), t),
+                None => (None, from(0)),
+            };
             match start {
                 Some(r) if convex_quad => {
                     taken.extend(diagonals(&tris));

@@ -11,6 +11,7 @@
 //! clockwise of the one it came in on. On an open mesh the boundary is a line too, and the faces
 //! outside it are dropped.
 
+use super::edge_faces::EdgeFaces;
 use super::seeding::Line;
 use super::surface::Surface;
 use rig::PolyMesh;
@@ -125,22 +126,16 @@ struct Parts(Vec<u32>);
 
 impl Parts {
     fn of(s: &Surface) -> Self {
-        let mut joined = UnionFind::new(s.mesh.faces.len());
-        let mut first: HashMap<(u32, u32), usize> = HashMap::new();
-        for (f, face) in s.mesh.faces.iter().enumerate() {
+        let (mesh, faces_of_edge) = (s.mesh, EdgeFaces::new(s.mesh));
+        let mut joined = UnionFind::new(mesh.faces.len());
+        for (f, face) in mesh.faces.iter().enumerate() {
             for k in 0..3 {
-                let (a, b) = (face[k], face[(k + 1) % 3]);
-                match first.entry((a.min(b), a.max(b))) {
-                    std::collections::hash_map::Entry::Occupied(g) => {
-                        joined.union(f, *g.get());
-                    }
-                    std::collections::hash_map::Entry::Vacant(v) => {
-                        v.insert(f);
-                    }
+                for &g in faces_of_edge.get(face[k] as usize, face[(k + 1) % 3] as usize) {
+                    joined.union(f, g as usize);
                 }
             }
         }
-        Parts((0..s.mesh.faces.len()).map(|f| joined.find(f) as u32).collect())
+        Parts((0..mesh.faces.len()).map(|f| joined.find(f) as u32).collect())
     }
 }
 
