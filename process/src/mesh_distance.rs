@@ -1,6 +1,7 @@
 //! Distances from points to a triangle mesh: AdFFT's subdivision test (the Hausdorff distance of a
 //! cell's samples to its local surface) and accuracy measurements against reference meshes.
 
+use crate::kd_tree::PointTree;
 use rig::TriMesh;
 use rig::math::{Point3, Real};
 use rustc_hash::FxHashMap;
@@ -63,16 +64,26 @@ fn closest_on_proper_triangle(p: &Point3, a: &Point3, b: &Point3, c: &Point3) ->
     a + ab * (vb * denom) + ac * (vc * denom)
 }
 
-/// Point-to-mesh distances through a uniform grid of triangle bounding boxes.
+/// Point-to-mesh distances through a uniform grid of triangle bounding boxes, and a k-d tree over
+/// the grid's occupied cells for points far from the mesh.
 pub struct MeshDistance {
     tris: Vec<[Point3; 3]>,
     cell: Real,
     // Fx hashing: the ring search looks up 27 or more cells a query, and SipHash dominated it.
     cells: FxHashMap<[i64; 3], Vec<u32>>,
+    /// The occupied cells' keys, and a tree over their centres: a point far from the mesh looks only
+    /// at occupied cells near its distance instead of every empty cell of the rings in between (a
+    /// point 30 cells away would have looked up 200,000 of them).
+    occupied: Vec<[i64; 3]>,
+    centres: Option<PointTree>,
     /// Grid keys spanned by the mesh, for ending the ring search.
     lo: [i64; 3],
     hi: [i64; 3],
 }
+
+/// Rings searched cell by cell before the search turns to the tree of occupied cells: a point within
+/// two cells of the mesh settles there in at most 125 lookups.
+const NEAR_RINGS: i64 = 2;
 
 impl MeshDistance {
     /// Indexes `mesh` with grid cells of edge `cell` (about the triangles' size, or the distances
@@ -96,7 +107,13 @@ impl MeshDistance {
                 }
             }
         }
-        MeshDistance { tris, cell, cells, lo, hi }
+        let occupied: Vec<[i64; 3]> = cells.keys().copied().collect();
+        let centres = (!occupied.is_empty()).then(|| {
+            PointTree::new(
+                &occupied.iter().map(|k| Point3::from(k.map(|c| (c as Real + 0.5) * cell))).collect::<Vec<_>>(),
+            )
+        });
+        MeshDistance { tris, cell, cells, occupied, centres, lo, hi }
     }
 
     /// The distance from `p` to the mesh (infinite for an empty mesh or a non-finite `p`). Searches
@@ -134,11 +151,14 @@ impl MeshDistance {
         self.search(p, limit, -1.0)
     }
 
-    /// The ring search: stops at `limit`, or as soon as a triangle within `enough` is found.
+    /// The ring search: stops at `limit`, or as soon as a triangle within `enough` is found. Within
+    /// [`NEAR_RINGS`] cells it looks up the rings cell by cell; beyond, it asks the tree of occupied
+    /// cells for those whose centre is within the distance found (or the nearest one's) plus half a
+    /// cell's diagonal: the nearest point of any nearer triangle lies in such a cell.
     fn search(&self, p: &Point3, limit: Real, enough: Real) -> Option<(Real, usize)> {
         // A NaN compares false with every bound, so the ring search would end up checking every
         // triangle, for nothing.
-        if !p.coords.iter().all(|c| c.is_finite()) {
+        if !p.coords.iter().all(|c| c.is_finite()) || self.tris.is_empty() {
             return None;
         }
         let mut best: Option<(Real, usize)> = None;
@@ -150,13 +170,13 @@ impl MeshDistance {
             }
         };
         let k = key(p, self.cell);
-        for ring in 0i64.. {
-            if self.tris.is_empty() || (ring - 1) as Real * self.cell > limit {
-                break;
+        for ring in 0..=NEAR_RINGS {
+            if (ring - 1) as Real * self.cell > limit {
+                return best;
             }
             if ((2 * ring + 1) as usize).pow(3) > 8 * self.tris.len() {
                 (0..self.tris.len()).for_each(|t| consider(t, &mut best));
-                break;
+                return best;
             }
             for dx in -ring..=ring {
                 for dy in -ring..=ring {
@@ -176,7 +196,36 @@ impl MeshDistance {
             // Cells beyond this ring are at least `ring · cell` away.
             let beyond_mesh = (0..3).all(|d| k[d] - ring <= self.lo[d] && k[d] + ring >= self.hi[d]);
             if best.is_some_and(|(d, _)| d <= ring as Real * self.cell) || beyond_mesh {
-                break;
+                return best;
+            }
+        }
+        // Farther out: a triangle at distance d has its nearest point in a cell whose centre is within
+        // d plus half the cell's diagonal.
+        let centres = self.centres.as_ref()?;
+        let half = 0.5 * 3f64.sqrt() * self.cell;
+        let mut reach = match best {
+            Some((d, _)) => d,
+            None => {
+                let (nearest, d2) = centres.nearest(p);
+                if d2.sqrt() - half > limit {
+                    return None;
+                }
+                for &t in &self.cells[&self.occupied[nearest]] {
+                    consider(t as usize, &mut best);
+                }
+                best.map_or(Real::INFINITY, |(d, _)| d)
+            }
+        };
+        if best.is_some_and(|(d, _)| d <= enough) {
+            return best;
+        }
+        reach = reach.min(limit) + half;
+        for c in centres.within(p, reach) {
+            for &t in &self.cells[&self.occupied[c]] {
+                consider(t as usize, &mut best);
+                if best.is_some_and(|(d, _)| d <= enough) {
+                    return best;
+                }
             }
         }
         best
@@ -232,5 +281,72 @@ mod tests {
         // No answer for a point that is not one.
         assert_eq!(d.nearest(&Point3::new(f64::NAN, 0.0, 0.0)), None);
         assert_eq!(d.distance(&Point3::new(0.0, f64::INFINITY, 0.0)), Real::INFINITY);
+    }
+
+    /// A bumpy open sheet of small triangles with a few large ones across it, from a seed.
+    fn sheet(seed: u64, n: usize) -> TriMesh {
+        let mut state = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        let mut next = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut vertices = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                let (x, y) = (i as f64 + 0.3 * next(), j as f64 + 0.3 * next());
+                vertices.push(Point3::new(x, y, (0.4 * x).sin() + 0.2 * next()));
+            }
+        }
+        let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+        let mut faces = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                faces.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                faces.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        for _ in 0..3 {
+            let k = vertices.len() as u32;
+            for _ in 0..3 {
+                vertices.push(Point3::new(next() * n as f64, next() * n as f64, 5.0 * next()));
+            }
+            faces.push([k, k + 1, k + 2]);
+        }
+        TriMesh { vertices, faces, normals: None }
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(24))]
+        /// Every query answers as checking every triangle would, near the mesh (the rings) and far
+        /// from it (the tree of occupied cells), with and without a limit or an early answer.
+        #[test]
+        fn answers_equal_checking_every_triangle(seed in 0u64..1000, cell in 0.2..4.0f64, reach in 0.5..80.0f64) {
+            let mesh = sheet(seed, 12);
+            let index = MeshDistance::new(&mesh, cell);
+            let tris: Vec<[Point3; 3]> = mesh.faces.iter().map(|f| f.map(|i| mesh.vertices[i as usize])).collect();
+            for q in 0..40u64 {
+                let u = |k: u64| ((seed * 131 + q * 17 + k * 7919) % 1000) as f64 / 1000.0;
+                let p = Point3::new(6.0 + reach * (2.0 * u(1) - 1.0), 6.0 + reach * (2.0 * u(2) - 1.0), reach * (2.0 * u(3) - 1.0));
+                let want = tris.iter().map(|[a, b, c]| (closest_on_triangle(&p, a, b, c) - p).norm()).fold(Real::INFINITY, Real::min);
+                let (got, t) = index.nearest(&p).unwrap();
+                proptest::prop_assert!((got - want).abs() <= 1e-9, "{} at {}: {} vs {}", q, p, got, want);
+                let [a, b, c] = &tris[t];
+                proptest::prop_assert!(((closest_on_triangle(&p, a, b, c) - p).norm() - got).abs() <= 1e-12);
+                for limit in [0.5 * want, 0.99 * want, want, 2.0 * want] {
+                    let d = index.distance_up_to(&p, limit);
+                    if want <= limit {
+                        proptest::prop_assert!((d - want).abs() <= 1e-9, "limit {}: {} vs {}", limit, d, want);
+                    } else {
+                        proptest::prop_assert!(d > limit, "limit {}: {} is not beyond it", limit, d);
+                    }
+                }
+                for bound in [0.5 * want, 1.01 * want, 3.0 * want] {
+                    match index.distance_beyond(&p, bound) {
+                        None => proptest::prop_assert!(want <= bound, "bound {}: None for {}", bound, want),
+                        Some(d) => proptest::prop_assert!(want > bound && (d - want).abs() <= 1e-9, "bound {}: {} vs {}", bound, d, want),
+                    }
+                }
+            }
+        }
     }
 }
