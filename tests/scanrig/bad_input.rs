@@ -307,14 +307,29 @@ fn a_remesh_that_joins_a_thin_parts_sides_is_refused_unless_forced() {
     let o = scanrig(&[&"remesh", &input, &"-o", &d.join("fine.obj"), &"--spacing", &"0.3"]);
     assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
 
-    // Pieces that get no quads: the coarsest Stanford bunny's small pieces, which the remesh's
-    // distance from its input shows (5.4 quads).
-    let coarse = fixtures::require!(fixtures::mesh("stanford-bunny/reconstruction/bun_zipper_res4.ply"));
-    let out = d.join("coarse_quads.obj");
-    let o = scanrig(&[&"remesh", &coarse, &"-o", &out]);
+    // A piece that gets no quads: a strip a fifth of a millimetre wide and 10 mm long beside a ring
+    // (narrower than the quads, no streamline crosses it), which the remesh's distance from its
+    // input shows.
+    let ring_mesh = rig::read_mesh(&ring(&d, 30.0, 8.0)).unwrap().triangulate();
+    let mut with_strip = ring_mesh.clone();
+    let k = with_strip.vertices.len() as u32;
+    for (x, y) in [(60.0, 0.0), (70.0, 0.0), (60.0, 0.2), (70.0, 0.2)] {
+        with_strip.vertices.push(rig::Point3::new(x, y, 0.0));
+    }
+    with_strip.faces.extend([[k, k + 1, k + 2], [k + 1, k + 3, k + 2]]);
+    let strip = d.join("ring_and_strip.ply");
+    rig::ply::write_mesh(&strip, &with_strip.to_poly(), &Default::default()).unwrap();
+    let out = d.join("strip_quads.obj");
+    let o = scanrig(&[&"remesh", &strip, &"-o", &out]);
     let err = stderr(&o);
     assert!(!o.status.success() && err.contains("strays") && err.contains("got no quads"), "{err}");
     assert!(!out.exists());
+    // The coarsest Stanford bunny was refused the same way (5.4 quads off): its pieces that meet
+    // along edges of three or more triangles were one part to the line graph, whose largest
+    // component then won them all. Each is now a part of its own.
+    let coarse = fixtures::require!(fixtures::mesh("stanford-bunny/reconstruction/bun_zipper_res4.ply"));
+    let o = scanrig(&[&"remesh", &coarse, &"-o", &d.join("coarse_quads.obj")]);
+    assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
     // The Newell teapot, whose patches meet only at their corners, was refused the same way (its
     // handle got no quads, 14.3 away); each part now keeps its own line graph and boundary.
     let teapot = fixtures::require!(fixtures::mesh("common-3d-test-models/teapot.obj"));

@@ -11,7 +11,6 @@
 //! clockwise of the one it came in on. On an open mesh the boundary is a line too, and the faces
 //! outside it are dropped.
 
-use super::edge_faces::EdgeFaces;
 use super::seeding::Line;
 use super::surface::Surface;
 use rig::PolyMesh;
@@ -119,23 +118,24 @@ pub fn quads_from_lines(s: &Surface, lines: &[Line], boundary_lines: &[bool], me
     (mesh, stats)
 }
 
-/// Which part of the mesh each face lies on: faces joined by edges. Parts that share only a vertex
-/// (the Newell teapot's patches meet at their corners) are apart: no line passes from one to the
-/// other, and the edges around a node there would be ordered in two surfaces at once.
+/// Which part of the mesh each face lies on: faces joined across edges that two faces share, as the
+/// streamlines cross them ([`Surface::across`]). Parts that share only a vertex (the Newell teapot's
+/// patches meet at their corners) or an edge of three or more faces (the coarse Stanford bunny's
+/// pieces) are apart: no line passes from one to the other, and the edges around a node there would
+/// be ordered in two surfaces at once.
 struct Parts(Vec<u32>);
 
 impl Parts {
     fn of(s: &Surface) -> Self {
-        let (mesh, faces_of_edge) = (s.mesh, EdgeFaces::new(s.mesh));
-        let mut joined = UnionFind::new(mesh.faces.len());
-        for (f, face) in mesh.faces.iter().enumerate() {
+        let mut joined = UnionFind::new(s.mesh.faces.len());
+        for f in 0..s.mesh.faces.len() {
             for k in 0..3 {
-                for &g in faces_of_edge.get(face[k] as usize, face[(k + 1) % 3] as usize) {
+                if let Some((g, _)) = s.across(f as u32, k) {
                     joined.union(f, g as usize);
                 }
             }
         }
-        Parts((0..mesh.faces.len()).map(|f| joined.find(f) as u32).collect())
+        Parts((0..s.mesh.faces.len()).map(|f| joined.find(f) as u32).collect())
     }
 }
 
@@ -741,4 +741,39 @@ fn unfold(s: &Surface, g: u32, k: usize, d: &Vector3) -> Vector3 {
     let Some((h, _)) = s.across(g, k) else { return *d };
     let inward_h = s.normal[h as usize].cross(&-e);
     e * d.dot(&e) - inward_g * d.dot(&inward_h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rig::TriMesh;
+
+    /// Faces are on one part only across an edge that two faces share: three fins on one edge, and
+    /// a face touching another by a corner, are each apart.
+    #[test]
+    fn parts_join_across_edges_of_two_faces_only() {
+        let p = |x: f64, y: f64, z: f64| Point3::new(x, y, z);
+        let mesh = TriMesh {
+            vertices: vec![
+                p(0.0, 0.0, 0.0),
+                p(1.0, 0.0, 0.0),
+                p(0.5, 1.0, 0.0),
+                p(0.5, -1.0, 0.0),
+                p(0.5, 0.0, 1.0),
+                p(1.5, 1.0, 0.0),
+                p(2.0, -1.0, 0.0),
+                p(3.0, -1.0, 0.0),
+            ],
+            // Fins 0, 1 and 2 share the edge 0–1; face 3 shares the edge 1–2 with fin 0 alone;
+            // face 4 touches the others at vertex 1 only.
+            faces: vec![[0, 1, 2], [1, 0, 3], [0, 1, 4], [1, 5, 2], [1, 6, 7]],
+            normals: None,
+        };
+        let s = Surface::new(&mesh);
+        let Parts(part) = Parts::of(&s);
+        assert_eq!(part[0], part[3], "fin 0 and the face across its edge of two faces");
+        let distinct: std::collections::HashSet<u32> = part.iter().copied().collect();
+        assert_eq!(distinct.len(), 4, "{part:?}");
+        assert!(part[1] != part[0] && part[2] != part[0] && part[1] != part[2] && part[4] != part[1], "{part:?}");
+    }
 }
