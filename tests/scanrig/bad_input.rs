@@ -307,13 +307,13 @@ fn a_remesh_that_joins_a_thin_parts_sides_is_refused_unless_forced() {
     let o = scanrig(&[&"remesh", &input, &"-o", &d.join("fine.obj"), &"--spacing", &"0.3"]);
     assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
 
-    // A piece that gets no quads: a strip a fifth of a millimetre wide and 10 mm long beside a ring
-    // (narrower than the quads, no streamline crosses it), which the remesh's distance from its
-    // input shows.
+    // A piece that gets no quads: a strip 0.02 mm wide and 10 mm long beside a ring, its crossings
+    // closer than the remesh merges (0.2 mm at the 1.33 mm spacing; 0.2 mm wide it is refused at
+    // 24 quads, 0.3 mm at 5, 0.5 mm gets quads), which the remesh's distance from its input shows.
     let ring_mesh = rig::read_mesh(&ring(&d, 30.0, 8.0)).unwrap().triangulate();
     let mut with_strip = ring_mesh.clone();
     let k = with_strip.vertices.len() as u32;
-    for (x, y) in [(60.0, 0.0), (70.0, 0.0), (60.0, 0.2), (70.0, 0.2)] {
+    for (x, y) in [(60.0, 0.0), (70.0, 0.0), (60.0, 0.02), (70.0, 0.02)] {
         with_strip.vertices.push(rig::Point3::new(x, y, 0.0));
     }
     with_strip.faces.extend([[k, k + 1, k + 2], [k + 1, k + 3, k + 2]]);

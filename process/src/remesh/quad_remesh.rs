@@ -510,19 +510,21 @@ fn path_family(mesh: &TriMesh, faces_of_edge: &EdgeFaces, grad: &[rig::math::Vec
 
 /// A constraint path as a line along mesh edges.
 fn path_line(mesh: &TriMesh, faces_of_edge: &EdgeFaces, path: &[usize], family: Family) -> Option<Line> {
-    let mut faces = Vec::with_capacity(path.len());
-    for w in path.windows(2) {
-        faces.push(*faces_of_edge.get(w[0], w[1]).first()?);
-    }
+    let faces = path.windows(2).map(|w| faces_of_edge.get(w[0], w[1]).first().copied()).collect::<Option<_>>()?;
+    Some(edge_line(mesh, path, faces, family))
+}
+
+/// A line along the mesh edges `path`, each edge filed under the face given for it.
+fn edge_line(mesh: &TriMesh, path: &[usize], faces: Vec<u32>, family: Family) -> Line {
     let closed = path.len() > 2 && path[0] == path[path.len() - 1];
-    Some(Line {
+    Line {
         family,
         points: path.iter().map(|&v| mesh.vertices[v]).collect(),
         faces,
         closed,
         on_edges: true,
         end_vertices: if closed { [None, None] } else { [Some(path[0] as u32), Some(path[path.len() - 1] as u32)] },
-    })
+    }
 }
 
 /// The mesh boundary as lines along its edges, each oriented with the surface on its left, split
@@ -550,23 +552,30 @@ fn boundary_lines(s: &Surface) -> Vec<Line> {
         None
     };
     let mut used: HashSet<(u32, usize)> = HashSet::new();
-    let faces_of_edge = EdgeFaces::new(mesh);
     let mut lines = Vec::new();
     for (f, k) in (0..mesh.faces.len() as u32).flat_map(|f| (0..3).map(move |k| (f, k))) {
         if !open(f, k) || used.contains(&(f, k)) {
             continue;
         }
         let mut path = vec![mesh.faces[f as usize][(k + 1) % 3] as usize];
+        // Each edge's own face: along an edge of three or more faces each fin has its own
+        // boundary, which its own streamlines must meet (the first face of the edge is one fin's).
+        let mut faces = Vec::new();
         let mut h = Some((f, k));
         while let Some((g, m)) = h {
             if !used.insert((g, m)) {
                 break;
             }
             path.push(mesh.faces[g as usize][(m + 2) % 3] as usize);
+            faces.push(g);
             h = next(g, m);
         }
+        // The pieces follow one another, each starting where the last ended.
+        let mut first = 0;
         for piece in split_at_turns(mesh, &path, 50.0) {
-            lines.extend(path_line(mesh, &faces_of_edge, &piece, Family::Contour));
+            let edges = piece.len() - 1;
+            lines.push(edge_line(mesh, &piece, faces[first..first + edges].to_vec(), Family::Contour));
+            first += edges;
         }
     }
     lines
@@ -595,6 +604,48 @@ mod tests {
 
     fn plate(w: usize, h: usize) -> TriMesh {
         fixtures::plate(w, h, false)
+    }
+
+    /// Three pages of a book share their spine (edges of three faces): each page's boundary runs
+    /// along the spine too, filed under that page's own faces, so its own streamlines end on it.
+    #[test]
+    fn each_fin_of_an_edge_of_three_faces_has_its_own_boundary_along_it() {
+        let (n, mut mesh) = (3usize, TriMesh::default());
+        for z in 0..=n {
+            mesh.vertices.push(Point3::new(0.0, 0.0, z as Real));
+        }
+        for page in 0..3 {
+            let a = page as Real * std::f64::consts::TAU / 3.0;
+            let first = mesh.vertices.len() as u32;
+            for i in 1..=n {
+                for z in 0..=n {
+                    mesh.vertices.push(Point3::new(i as Real * a.cos(), i as Real * a.sin(), z as Real));
+                }
+            }
+            let v = |i: usize, z: usize| if i == 0 { z as u32 } else { first + ((i - 1) * (n + 1) + z) as u32 };
+            for i in 0..n {
+                for z in 0..n {
+                    mesh.faces.push([v(i, z), v(i + 1, z), v(i + 1, z + 1)]);
+                    mesh.faces.push([v(i, z), v(i + 1, z + 1), v(i, z + 1)]);
+                }
+            }
+        }
+        let s = Surface::new(&mesh);
+        let lines = boundary_lines(&s);
+        let page_of = |f: u32| f as usize / (2 * n * n);
+        let mut spine_pages = HashSet::new();
+        for line in &lines {
+            for (i, &f) in line.faces.iter().enumerate() {
+                let face = mesh.faces[f as usize].map(|v| mesh.vertices[v as usize]);
+                for p in [line.points[i], line.points[i + 1]] {
+                    assert!(face.contains(&p), "segment {i} filed under face {f}, which lacks its end {p}");
+                }
+                if line.points[i].x == 0.0 && line.points[i].y == 0.0 && line.points[i + 1].x == 0.0 {
+                    spine_pages.insert(page_of(f));
+                }
+            }
+        }
+        assert_eq!(spine_pages.len(), 3, "pages with a boundary along the spine: {spine_pages:?}");
     }
 
     #[test]
