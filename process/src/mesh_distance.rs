@@ -76,6 +76,10 @@ pub struct MeshDistance {
     /// point 30 cells away would have looked up 200,000 of them).
     occupied: Vec<[i64; 3]>,
     centres: Option<PointTree>,
+    /// Triangles spanning more than [`MAX_CELLS_PER_TRIANGLE`] cells, checked on every query instead:
+    /// one vertex 10³⁰ mm out (a stray in an exported mesh) had a triangle filed in cell after cell
+    /// until memory ran out.
+    large: Vec<u32>,
     /// Grid keys spanned by the mesh, for ending the ring search.
     lo: [i64; 3],
     hi: [i64; 3],
@@ -85,6 +89,10 @@ pub struct MeshDistance {
 /// two cells of the mesh settles there in at most 125 lookups.
 const NEAR_RINGS: i64 = 2;
 
+/// The most cells one triangle is filed in. A scan's base cap has triangles of 10⁴–10⁵ cells; beyond
+/// 2²⁰ the cell is not made for the triangle, and checking it on every query costs less.
+const MAX_CELLS_PER_TRIANGLE: Real = (1 << 20) as Real;
+
 impl MeshDistance {
     /// Indexes `mesh` with grid cells of edge `cell` (about the triangles' size, or the distances
     /// expected, whichever is larger).
@@ -92,9 +100,15 @@ impl MeshDistance {
         let tris: Vec<[Point3; 3]> = mesh.faces.iter().map(|f| f.map(|i| mesh.vertices[i as usize])).collect();
         let mut cells: FxHashMap<[i64; 3], Vec<u32>> = FxHashMap::default();
         let (mut lo, mut hi) = ([i64::MAX; 3], [i64::MIN; 3]);
+        let mut large = Vec::new();
         for (t, tri) in tris.iter().enumerate() {
             let a = key(&tri[0].inf(&tri[1]).inf(&tri[2]), cell);
             let b = key(&tri[0].sup(&tri[1]).sup(&tri[2]), cell);
+            // In floating point: three spans of up to 2⁶⁴ cells overflow any integer.
+            if (0..3).map(|d| b[d] as Real - a[d] as Real + 1.0).product::<Real>() > MAX_CELLS_PER_TRIANGLE {
+                large.push(t as u32);
+                continue;
+            }
             for d in 0..3 {
                 lo[d] = lo[d].min(a[d]);
                 hi[d] = hi[d].max(b[d]);
@@ -113,7 +127,7 @@ impl MeshDistance {
                 &occupied.iter().map(|k| Point3::from(k.map(|c| (c as Real + 0.5) * cell))).collect::<Vec<_>>(),
             )
         });
-        MeshDistance { tris, cell, cells, occupied, centres, lo, hi }
+        MeshDistance { tris, cell, cells, occupied, centres, large, lo, hi }
     }
 
     /// The distance from `p` to the mesh (infinite for an empty mesh or a non-finite `p`). Searches
@@ -168,6 +182,12 @@ impl MeshDistance {
                 *best = Some((d, t));
             }
         };
+        for &t in &self.large {
+            consider(t as usize, &mut best);
+            if best.is_some_and(|(d, _)| d <= enough) {
+                return best;
+            }
+        }
         let k = key(p, self.cell);
         for ring in 0..=NEAR_RINGS {
             if (ring - 1) as Real * self.cell > limit {
@@ -206,7 +226,7 @@ impl MeshDistance {
         }
         // Farther out: a triangle at distance d has its nearest point in a cell whose centre is within
         // d plus half the cell's diagonal.
-        let centres = self.centres.as_ref()?;
+        let Some(centres) = self.centres.as_ref() else { return best };
         let half = 0.5 * 3f64.sqrt() * self.cell;
         let mut reach = match best {
             Some((d, _)) => d,
@@ -286,6 +306,26 @@ mod tests {
         // No answer for a point that is not one.
         assert_eq!(d.nearest(&Point3::new(f64::NAN, 0.0, 0.0)), None);
         assert_eq!(d.distance(&Point3::new(0.0, f64::INFINITY, 0.0)), Real::INFINITY);
+    }
+
+    /// A triangle with a corner 10³⁰ mm out is checked on every query instead of being filed in
+    /// cell after cell (which ran out of memory); the answers are still every triangle's.
+    #[test]
+    fn a_vertex_far_out_is_not_filed_cell_by_cell() {
+        let mut mesh = sheet(3, 6);
+        let k = mesh.vertices.len() as u32;
+        mesh.vertices.extend([Point3::new(0.0, 0.0, 20.0), Point3::new(1.0, 0.0, 20.0), Point3::new(1e30, 1e30, 1e30)]);
+        mesh.faces.push([k, k + 1, k + 2]);
+        let index = MeshDistance::new(&mesh, 0.5);
+        assert_eq!(index.large, vec![mesh.faces.len() as u32 - 1]);
+        let tris: Vec<[Point3; 3]> = mesh.faces.iter().map(|f| f.map(|i| mesh.vertices[i as usize])).collect();
+        for p in [Point3::new(3.0, 3.0, 1.0), Point3::new(0.5, 0.2, 21.0), Point3::new(-40.0, 10.0, 5.0)] {
+            let want = tris
+                .iter()
+                .map(|[a, b, c]| (closest_on_triangle(&p, a, b, c) - p).norm())
+                .fold(Real::INFINITY, Real::min);
+            assert!((index.distance(&p) - want).abs() <= 1e-9 * want.max(1.0), "{p}: {} vs {want}", index.distance(&p));
+        }
     }
 
     /// A bumpy open sheet of small triangles with a few large ones across it, from a seed.

@@ -324,6 +324,21 @@ fn a_remesh_that_joins_a_thin_parts_sides_is_refused_unless_forced() {
     let err = stderr(&o);
     assert!(!o.status.success() && err.contains("strays") && err.contains("got no quads"), "{err}");
     assert!(!out.exists());
+    // A stray vertex 10³⁰ mm out (an exporter's garbage): refused at once, not a hang. The
+    // distance check filed its triangle in cell after cell until memory ran out.
+    let mut stray = ring_mesh.clone();
+    let k = stray.vertices.len() as u32;
+    stray.vertices.extend([
+        rig::Point3::new(60.0, 0.0, 0.0),
+        rig::Point3::new(61.0, 0.0, 0.0),
+        rig::Point3::new(1e30, 1e30, 1e30),
+    ]);
+    stray.faces.push([k, k + 1, k + 2]);
+    let far = d.join("ring_and_stray.ply");
+    rig::ply::write_mesh(&far, &stray.to_poly(), &Default::default()).unwrap();
+    let o = scanrig(&[&"remesh", &far, &"-o", &d.join("stray_quads.obj")]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("strays") && err.contains("ring_and_stray.ply"), "{err}");
     // The coarsest Stanford bunny was refused the same way (5.4 quads off): its pieces that meet
     // along edges of three or more triangles were one part to the line graph, whose largest
     // component then won them all. Each is now a part of its own.
