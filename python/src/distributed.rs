@@ -219,11 +219,10 @@ fn _adfft_slabs<'py>(
     let (mesh, r) = result.map_err(errors::stage_as(&["force", "depth", "samples-per-cell"]))?;
     let stage_report = ::process::pipeline::stages::ReconstructReport::Adfft(r);
     // The single process's checks of its mesh (`scanrig.reconstruct`, `scanrig process`): no surface
-    // and a mesh far from its cloud refused (the latter unless `force`), the report's own warnings
-    // given. Without them a distributed mesh was returned in silence whatever it was.
-    let positions = xyz.points();
+    // refused, and a mesh inside out, facing against its samples' normals or far from them (each
+    // unless `force`), the report's own warnings given. Without them a distributed mesh was returned in silence whatever it was.
     let warnings = py
-        .detach(|| ::process::pipeline::stages::checked_reconstruction(&mesh, &stage_report, positions, force))
+        .detach(|| ::process::pipeline::stages::checked_reconstruction(&mesh, &stage_report, cloud, force))
         .map_err(errors::stage_as(&["force", "depth", "samples-per-cell"]))?;
     errors::warn_each_as(py, &warnings, &["force", "depth", "samples-per-cell"])?;
     Ok((

@@ -176,27 +176,32 @@ def test_adfft_of_the_bunny_on_two_workers_equals_the_single_process_mesh(cluste
         assert spread["returned_mb"] < 2 * (v1.nbytes + f1.nbytes) / 1e6, spread
 
 
-def test_a_distributed_mesh_far_from_its_points_is_refused_unless_forced(cluster, tmp_path):
-    # A sphere whose normals point in or out at random: the single process refuses its mesh (most of
-    # it is not in the data); the distributed path had returned it in silence.
+def test_a_distributed_mesh_its_points_do_not_support_is_refused_unless_forced(cluster, tmp_path):
+    # A sphere whose normals point in or out at random: the single process refuses its mesh (it faces
+    # against half its samples, and most of it is not in the data); the distributed path had returned
+    # it in silence. All normals turned inward: an inside-out mesh, refused by both alike.
     rng = np.random.default_rng(3)
     d = rng.normal(size=(6000, 3))
     d /= np.linalg.norm(d, axis=1)[:, None]
     p, n = 30.0 * d, d * np.where(rng.uniform(size=6000) < 0.5, 1.0, -1.0)[:, None]
-    with pytest.raises(scanrig.StageError, match="lies far from its cloud"):
+    with pytest.raises(scanrig.StageError, match="faces against the normal of the sample nearest it"):
         scanrig.reconstruct(p, n, method="adfft", depth=7)
-    with pytest.raises(scanrig.StageError, match="lies far from its cloud"):
+    with pytest.raises(scanrig.StageError, match="faces against the normal of the sample nearest it"):
         distributed.reconstruct(p, n, depth=7, address=cluster)
+    for reconstruct in (lambda: scanrig.reconstruct(p, -d, method="adfft", depth=7),
+                        lambda: distributed.reconstruct(p, -d, depth=7, address=cluster)):
+        with pytest.raises(scanrig.StageError, match="the mesh is inside out.*force=True"):
+            reconstruct()
     # force is a yes or no, refused by name before any Ray work.
     with pytest.raises(TypeError, match="force must be True or False"):
         distributed.reconstruct(p, n, depth=7, address=cluster, force="yes")
     # The command line keeps it with --force, saying the warning as scanrig says its own (refusals
     # there: the next test).
-    src, out = tmp_path / "inside_out.ply", tmp_path / "mesh.ply"
+    src, out = tmp_path / "mixed.ply", tmp_path / "mesh.ply"
     scanrig.write_cloud(src, p, n)
     entry = ["python3", "-m", "scanrig.distributed", "--address", cluster, "reconstruct", src, "-o", out, "--depth", "7"]
     r = subprocess.run(entry + ["--force"], capture_output=True, text=True)
-    assert r.returncode == 0 and "warning: the mesh lies far from its cloud" in r.stderr, r.stderr
+    assert r.returncode == 0 and "warning: the mesh faces against" in r.stderr, r.stderr
     assert out.exists()
 
 

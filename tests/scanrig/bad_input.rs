@@ -248,10 +248,12 @@ fn registration_cannot_move_a_view_beyond_what_a_turntable_is_off() {
 }
 
 /// Plausibility of a mesh: a cloud whose normals point in and out at random (as a laser scan's did)
-/// gives a surface made up far from the points; it is refused unless forced. A consistent cloud of
-/// the same points passes.
+/// gives a mesh of handles and pockets facing against them; one whose normals all point inward, an
+/// inside-out mesh (AdFFT) or a surface made up far from the points (the global FFT, closing it at
+/// its grid's edge). Each is refused, saying so and naming --force, and written with the warning
+/// when forced. A consistent cloud of the same points passes without one.
 #[test]
-fn a_mesh_far_from_its_cloud_is_refused_unless_forced() {
+fn a_mesh_its_cloud_does_not_support_is_refused_unless_forced() {
     let d = fixtures::temp_dir("bad-support");
     let mut rng = fixtures::Rng::new(3);
     let (mut positions, mut normals, mut outward) = (Vec::new(), Vec::new(), Vec::new());
@@ -261,6 +263,7 @@ fn a_mesh_far_from_its_cloud_is_refused_unless_forced() {
         outward.push(n);
         normals.push(if rng.uniform() < 0.5 { n } else { -n });
     }
+    let inward: Vec<rig::Vector3> = outward.iter().map(|n| -n).collect();
     let write = |name: &str, normals: Vec<rig::Vector3>| {
         let mut cloud = rig::PointCloud::from_positions(positions.clone());
         cloud.normals = Some(normals);
@@ -268,18 +271,33 @@ fn a_mesh_far_from_its_cloud_is_refused_unless_forced() {
         rig::ply::write_cloud(&path, &cloud, &Default::default()).unwrap();
         path
     };
-    let (good, bad) = (write("good.ply", outward), write("bad.ply", normals));
+    let good = write("good.ply", outward);
     let o = scanrig(&[&"reconstruct", &good, &"-o", &d.join("good_mesh.ply"), &"--depth", &"7"]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = scanrig(&[&"reconstruct", &bad, &"-o", &d.join("bad_mesh.ply"), &"--depth", &"7"]);
-    let err = stderr(&o);
-    assert!(
-        !o.status.success() && err.contains("the mesh lies far from its cloud") && err.contains("--force"),
-        "{err}"
-    );
-    assert!(!d.join("bad_mesh.ply").exists());
-    let o = scanrig(&[&"reconstruct", &bad, &"-o", &d.join("bad_mesh.ply"), &"--depth", &"7", &"--force"]);
-    assert!(o.status.success() && stderr(&o).contains("bad_mesh.ply: the mesh lies far"), "{}", stderr(&o));
+    assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
+    let cases = [
+        (
+            write("random.ply", normals),
+            "fft",
+            "the mesh faces against the normal of the sample nearest it",
+            "not oriented consistently",
+        ),
+        (write("inward.ply", inward), "adfft", "the mesh is inside out", "point into the object"),
+        (d.join("inward.ply"), "fft", "the mesh lies far from its cloud", "point inward"),
+    ];
+    for (input, method, what, why) in cases {
+        let out = d.join(format!("{method}_mesh.ply"));
+        let _ = std::fs::remove_file(&out);
+        let o = scanrig(&[&"reconstruct", &input, &"-o", &out, &"--depth", &"7", &"--method", &method]);
+        let err = stderr(&o);
+        assert!(!o.status.success() && err.contains(what) && err.contains(why) && err.contains("--force"), "{err}");
+        assert!(!out.exists(), "{} was written", out.display());
+        let o = scanrig(&[&"reconstruct", &input, &"-o", &out, &"--depth", &"7", &"--method", &method, &"--force"]);
+        let err = stderr(&o);
+        assert!(
+            o.status.success() && err.contains(&format!("_mesh.ply: {what}")) && err.contains("(--force)"),
+            "{err}"
+        );
+    }
 }
 
 /// Plausibility of a quad remesh: a ring whose tube (0.4 across its radius) is thinner than the
