@@ -741,8 +741,8 @@ pub struct ReconstructArgs {
     /// Print the report as JSON.
     #[arg(long)]
     pub json: bool,
-    /// Write the mesh even when its cloud does not support it — far from it, inside out, or facing
-    /// against its normals (it is still warned about).
+    /// Write the mesh even when its cloud does not support it — far from it, inside out, facing
+    /// against its normals or leaving samples out (it is still warned about).
     #[arg(long)]
     pub force: bool,
     /// Cap the cloud's open base and top flat first, as `process` does: for a cloud in a turntable

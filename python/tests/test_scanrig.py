@@ -72,10 +72,16 @@ def test_fuse_equals_the_cli(tmp_path, bunny_fused):
 
 def test_reconstruct_equals_the_cli_and_is_near_the_zippered_surface(tmp_path, bunny_fused):
     fused, _, _ = bunny_fused
-    v, f, report = scanrig.reconstruct(fused["points"], fused["normals"], depth=7)
+    # The coarse bunny fused without normals: the spanning tree turns an ear's thin tip the wrong way
+    # and the global FFT loses it, leaving out 2.6 % of the samples, up to 45 mm off. Both the
+    # function and the command line refuse it unless forced, and then say so.
+    with pytest.raises(scanrig.StageError, match="leaves out .* of the cloud's samples.*force=True"):
+        scanrig.reconstruct(fused["points"], fused["normals"], depth=7)
+    with pytest.warns(UserWarning, match="leaves out"):
+        v, f, report = scanrig.reconstruct(fused["points"], fused["normals"], depth=7, force=True)
     assert report["method"] == "fft" and report["n"] == 128
     scanrig.write_cloud(tmp_path / "in.ply", fused["points"], fused["normals"])
-    run("reconstruct", tmp_path / "in.ply", "-o", tmp_path / "m.ply", "--depth", "7")
+    run("reconstruct", tmp_path / "in.ply", "-o", tmp_path / "m.ply", "--depth", "7", "--force")
     theirs = scanrig.read_mesh(tmp_path / "m.ply")
     # The CLI reads the float32 file: the same mesh up to that rounding.
     assert abs(len(theirs["vertices"]) - len(v)) <= len(v) // 1000
