@@ -597,7 +597,7 @@ pub const CLOSE: StageCode = StageCode { stage: "close", version: 1 };
 /// evaluated along rows, the same rounding kind, and its grid no finer than the samples carry; 5: the
 /// record keeps the support check's measurement, which a reused mesh is judged by again; 6: and how
 /// high the reconstruction rose above the working volume's top, for the same; 7: and whether it is inside
-/// out or faces against its samples' normals, which are refused unless forced).
+/// out, faces against its samples' normals or leaves samples out, which are refused unless forced).
 pub const MESH: StageCode = StageCode { stage: "mesh", version: 7 };
 
 /// What the closed cloud is made from besides the fused cloud: the closing parameters.
