@@ -150,8 +150,8 @@ type Mesh<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>, Bound<'p
 /// weights, `layers` each slab's cube layers as (first, end); it returns each slab's (vertices,
 /// triangles) in order, as `_adfft_sweep_slab` makes them. The octree, the coarse χ, the joining
 /// and the clean-up run here (thesis 5.3); the solved leaves never do. The mesh is checked as
-/// `reconstruct`'s is: none, or one far from the points unless `force`, raises `StageError`; what
-/// else is wrong is a `UserWarning`.
+/// `reconstruct`'s is: none, or one far from the points, inside out, facing against their normals or
+/// leaving some out unless `force`, raises `StageError`; what else is wrong is a `UserWarning`.
 #[pyfunction]
 #[pyo3(signature = (points, normals, run, *, slabs=2, depth=None, error=None, samples_per_cell=None, force=false))]
 #[allow(clippy::too_many_arguments)]

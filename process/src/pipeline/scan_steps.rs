@@ -368,17 +368,20 @@ pub(super) fn mesh_step(
 }
 
 /// A laser scan's surface between its lines is only what reconstruction makes up: too few views is
-/// the usual cause of an unsupported mesh, and the fix.
+/// the usual cause of an unsupported mesh, and the fix — not of an inside-out one, whose normals
+/// point inward however many views there are.
 fn laser_hint(source: StageError, method: Method, views: usize) -> StageError {
     match (source, method) {
-        (StageError::Implausible { what, hint }, Method::Laser) => StageError::Implausible {
-            what,
-            hint: format!(
-                "this laser scan's {views} views put its lines {:.1}° apart: take more views (`scan --views`, `sim \
-                 --views`); or {hint}",
-                360.0 / views.max(1) as Real
-            ),
-        },
+        (StageError::Implausible { what, hint }, Method::Laser) if !what.starts_with("the mesh is inside out") => {
+            StageError::Implausible {
+                what,
+                hint: format!(
+                    "this laser scan's {views} views put its lines {:.1}° apart: take more views (`scan --views`, \
+                     `sim --views`); or {hint}",
+                    360.0 / views.max(1) as Real
+                ),
+            }
+        }
         (other, _) => other,
     }
 }

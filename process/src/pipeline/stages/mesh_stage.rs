@@ -237,7 +237,8 @@ pub struct MeshReport {
     /// Base and trim.
     #[serde(default)]
     pub finish: FinishReport,
-    /// How far the mesh lies from its cloud ([`check_support`]), judged again when the mesh is reused.
+    /// How the mesh sits on its cloud ([`check_support`]: far from it, inside out, facing against
+    /// its normals, leaving samples out), judged again when the mesh is reused.
     #[serde(default)]
     pub support: Option<Support>,
 }
@@ -307,7 +308,7 @@ pub const MAX_MEDIAN_GAP: Real = 0.02;
 /// almost everywhere: 0.00 % on the simulated scans, 0.02 % on the ten aligned Stanford bunny scans,
 /// 0.07–0.12 % on the coarsest zippered bunny fused (8,171 points) at depths 7 and 9, FFT and AdFFT.
 /// A cloud whose normals are not oriented consistently makes a mesh of handles and pockets: a sphere
-/// with a twentieth of its normals turned at random 4.7–5.5 % (FFT genus 161), a tenth 9.7–10 %, one
+/// with a twentieth of its normals turned at random 4.7–5.5 % (FFT genus 161), a tenth 9.5–10 %, one
 /// of eight overlapping views turned 3.3–9.4 %. (Half the sphere turned, meeting the rest along one
 /// seam, gives 0.6 % and passes.)
 pub const MAX_AGAINST: Real = 0.01;
@@ -320,7 +321,7 @@ pub const NEAR_SPACINGS: Real = 4.0;
 /// reconstruction runs through its samples: none of the simulated scans' or the spheres' samples is
 /// left out, 0.2–0.3 % of the ten aligned bunny scans' (their noise), of the coarsest zippered bunny
 /// fused 0.1 % by AdFFT; the global FFT of that cloud at depths 7 and 9 lost an ear's tip, leaving
-/// out 1.9–2.6 % of the samples, up to 44 mm from the mesh; a cup fused without normals, whose inner
+/// out 1.9–2.6 % of the samples, up to 45 mm from the mesh; a cup fused without normals, whose inner
 /// wall the spanning tree turned to face into the wall, 34 %.
 pub const MAX_LEFT_OUT: Real = 0.01;
 
@@ -337,7 +338,7 @@ pub struct LeftOut {
     pub share: Real,
     /// The distance from every vertex beyond which a sample is left out ([`LEFT_OUT_CELLS`]).
     pub reach: Real,
-    /// The farthest sample's distance from the mesh's vertices.
+    /// The farthest of those samples' distance from the mesh's vertices.
     pub farthest: Real,
 }
 
@@ -399,7 +400,7 @@ pub fn support(mesh: &TriMesh, cloud: rig::CloudRef<'_>, tree: &PointTree) -> Op
     }
     let mid = gaps.len() / 2;
     let median_gap = *gaps.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1;
-    let against = cloud.normals.map(|normals| {
+    let against = cloud.normals.and_then(|normals| {
         let spacing = spacing(positions, tree);
         let vertex_normals = mesh.vertex_normals();
         let (mut counted, mut turned) = (0usize, 0usize);
@@ -414,7 +415,8 @@ pub fn support(mesh: &TriMesh, cloud: rig::CloudRef<'_>, tree: &PointTree) -> Op
                 turned += usize::from(vertex_normals[v].dot(&n) < 0.0);
             }
         }
-        turned as Real / counted.max(1) as Real
+        // No vertex on the samples' surface (a spacing of 0: every point five times over) says nothing.
+        (counted > 0).then(|| turned as Real / counted as Real)
     });
     Some(Support { median_gap, diagonal, against, volume: None, left_out: None })
 }
@@ -458,8 +460,10 @@ fn spacing(positions: &[Point3], tree: &PointTree) -> Real {
 pub fn enclosed_volume(mesh: &TriMesh) -> Real {
     let Some(b) = rig::Aabb::of(&mesh.vertices) else { return 0.0 };
     let centre = nalgebra::center(&b.min, &b.max);
+    // In order, not in parallel: the record keeps the volume, and a sum in another order differs in its
+    // last bits from run to run.
     mesh.faces
-        .par_iter()
+        .iter()
         .map(|f| {
             let [a, b, c] = f.map(|i| mesh.vertices[i as usize] - centre);
             a.dot(&b.cross(&c)) / 6.0
@@ -701,8 +705,8 @@ fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -
 }
 
 /// What is wrong with a mesh, from its record alone, so a reused mesh is judged as the run that made
-/// it was: inside out, facing against its samples' normals or far from them (each an error unless
-/// `force`, [`judge_support`]), cut at the working volume's top, a base not cut or not closed, and
+/// it was: inside out, facing against its samples' normals, far from them or leaving samples out
+/// (each an error unless `force`, [`judge_support`]), cut at the working volume's top, a base not cut or not closed, and
 /// what the reconstruction's report says.
 pub fn judge_mesh(report: &MeshReport, force: bool) -> Result<Vec<String>, StageError> {
     let finish = &report.finish;
@@ -840,6 +844,18 @@ mod tests {
             Some(BaseReport { base: Base::Flat, outline_edges: 40, cap_triangles: 30, ..Default::default() });
         let w = judge_mesh(&r, false).unwrap();
         assert!(w.len() == 1 && w[0].contains("did not close the mesh (40 outline edges"), "{w:?}");
+        // Inside out, and samples left out: refused from the record alone, both said when forced.
+        let left_out = Some(LeftOut { share: 0.03, reach: 1.0, farthest: 12.0 });
+        r.support =
+            Some(Support { median_gap: 0.1, diagonal: 100.0, against: Some(0.0), volume: Some(-5e4), left_out });
+        let e = judge_mesh(&r, false).unwrap_err().to_string();
+        assert!(e.starts_with("the mesh is inside out"), "{e}");
+        let w = judge_mesh(&r, true).unwrap();
+        assert!(w.iter().any(|w| w.starts_with("the mesh is inside out") && w.ends_with("(--force)")), "{w:?}");
+        assert!(
+            w.iter().any(|w| w.starts_with("the mesh leaves out 3.0 %") && w.contains("the farthest 12.0")),
+            "{w:?}"
+        );
         // Far from its cloud: refused unless forced, and then said.
         r.support = Some(Support { median_gap: 30.0, diagonal: 100.0, against: None, volume: None, left_out: None });
         assert!(judge_mesh(&r, false).is_err());
