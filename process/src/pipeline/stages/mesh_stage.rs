@@ -175,8 +175,8 @@ fn report_warnings(report: &ReconstructReport) -> Vec<String> {
 /// The checks [`mesh`] makes of a bare reconstruction, for a mesh reconstructed elsewhere (AdFFT's
 /// slabs on Ray workers, joined by [`crate::reconstruct::adfft::reconstruct_adfft_slabs`]): a mesh
 /// with no surface is refused, one inside out, facing against its samples, leaving them out or far
-/// from them is refused unless `force` ([`check_support`]), and what the report says is wrong comes back as warnings, as
-/// the single process gives them.
+/// from them is refused unless `force` ([`check_support`]), and what the report says is wrong comes
+/// back as warnings, as the single process gives them.
 pub fn checked_reconstruction(
     mesh: &TriMesh,
     report: &ReconstructReport,
@@ -357,7 +357,7 @@ pub struct Support {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub against: Option<Real>,
     /// The reconstruction's enclosed volume before its finish cut or trimmed it
-    /// ([`enclosed_volume`]): negative when its faces are turned inward.
+    /// ([`TriMesh::signed_volume`]): negative when its faces are turned inward.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub volume: Option<Real>,
     /// The samples the reconstruction left out, before its finish ([`left_out`]).
@@ -377,7 +377,7 @@ pub fn check_support(
     force: bool,
 ) -> Result<Vec<String>, StageError> {
     let measured = support(mesh, cloud, tree).map(|s| Support {
-        volume: Some(enclosed_volume(mesh)),
+        volume: Some(mesh.signed_volume()),
         left_out: left_out(mesh, cloud.positions, tree, cell),
         ..s
     });
@@ -452,23 +452,6 @@ fn spacing(positions: &[Point3], tree: &PointTree) -> Real {
     }
     let mid = reach.len() / 2;
     0.5 * *reach.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
-}
-
-/// A closed mesh's enclosed volume by the divergence theorem, about its bounding box's centre (about
-/// the origin, a mesh 10⁷ away would lose its volume to rounding): positive when its faces turn
-/// outward, negative when inward.
-pub fn enclosed_volume(mesh: &TriMesh) -> Real {
-    let Some(b) = rig::Aabb::of(&mesh.vertices) else { return 0.0 };
-    let centre = nalgebra::center(&b.min, &b.max);
-    // In order, not in parallel: the record keeps the volume, and a sum in another order differs in its
-    // last bits from run to run.
-    mesh.faces
-        .iter()
-        .map(|f| {
-            let [a, b, c] = f.map(|i| mesh.vertices[i as usize] - centre);
-            a.dot(&b.cross(&c)) / 6.0
-        })
-        .sum()
 }
 
 /// [`check_support`]'s judgement of a measured (or recorded) [`Support`]: each finding an error
@@ -686,7 +669,7 @@ fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -
     let (mesh, reconstructed) = reconstruct_in(input, &params.reconstruct, Some(&tree), steps)?;
     // Measured before the finish cuts the base or trims: the bare reconstruction is closed, and
     // runs through every sample it keeps.
-    let (volume, left) = (enclosed_volume(&mesh), left_out(&mesh, input.positions, &tree, reconstructed.cell()));
+    let (volume, left) = (mesh.signed_volume(), left_out(&mesh, input.positions, &tree, reconstructed.cell()));
     let (mut mesh, mut finish) = finish(mesh, input.positions, &params.finish, params.platter_z, reconstructed.cell())?;
     if let Some(z) = params.top_z {
         let high = mesh.vertices.iter().map(|p| p.z).fold(Real::NEG_INFINITY, Real::max);
@@ -706,8 +689,8 @@ fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -
 
 /// What is wrong with a mesh, from its record alone, so a reused mesh is judged as the run that made
 /// it was: inside out, facing against its samples' normals, far from them or leaving samples out
-/// (each an error unless `force`, [`judge_support`]), cut at the working volume's top, a base not cut or not closed, and
-/// what the reconstruction's report says.
+/// (each an error unless `force`, [`judge_support`]), cut at the working volume's top, a base not
+/// cut or not closed, and what the reconstruction's report says.
 pub fn judge_mesh(report: &MeshReport, force: bool) -> Result<Vec<String>, StageError> {
     let finish = &report.finish;
     let mut warnings = Vec::new();
@@ -786,7 +769,7 @@ mod tests {
         let (tree, cell) = (PointTree::new(&cloud.positions), report.cell());
         let s = support(&mesh, cloud.borrowed(), &tree).unwrap();
         assert!(s.against == Some(0.0) && s.median_gap < 1.0, "{s:?}");
-        assert!((enclosed_volume(&mesh) / (4.0 / 3.0 * std::f64::consts::PI * 27e3) - 1.0).abs() < 0.05);
+        assert!((mesh.signed_volume() / (4.0 / 3.0 * std::f64::consts::PI * 27e3) - 1.0).abs() < 0.05);
         assert_eq!(check_support(&mesh, cloud.borrowed(), &tree, cell, false).unwrap(), Vec::<String>::new());
         // A patch of samples 15 mm off the sphere, which no surface runs through: left out.
         let mut patched = cloud.clone();
