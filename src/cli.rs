@@ -674,6 +674,11 @@ pub struct ServeArgs {
     /// binds, prints the address and stops — for scripts).
     #[arg(long)]
     pub seconds: Option<u64>,
+    /// Seconds a page that controls the rig may go unheard (its laptop asleep, its network gone)
+    /// before another page may take control (3 to 3600). The page answers the station every few
+    /// seconds while it is open; a closed page lets go after 10 s.
+    #[arg(long, default_value_t = 30)]
+    pub control_timeout: u64,
     /// The virtual rig (the simulator's camera and projector and the virtual turntable, offered as
     /// devices beside real ones).
     #[command(flatten)]

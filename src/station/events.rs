@@ -5,7 +5,7 @@ use serde_json::Value;
 use std::io::Write;
 use std::sync::Mutex;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, SyncSender, TrySendError, sync_channel};
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 
 /// Milliseconds since the Unix epoch: the time stamps events carry, so a page on the same machine
 /// measures how long an event took to reach its screen.
@@ -49,22 +49,34 @@ impl Bus {
 }
 
 /// Streams events to one page until it goes away: the response head, then each event as it comes
-/// (flushed at once: a buffered event would arrive late), and a comment every 5 s so proxies and
-/// the browser keep the connection and a page that went away is noticed (its control released).
-pub fn stream(mut out: Box<dyn Write + Send>, events: Receiver<String>) {
+/// (flushed at once: a buffered event would arrive late), and a `ping` event every `ping`, however
+/// busy the stream: the controlling page answers each (POST /api/alive), which is how the station
+/// knows it is still there (a page asleep keeps its stream open, and writes to it go on succeeding
+/// until the socket's buffer fills). Pings also keep proxies and the browser from closing the
+/// connection, and a page that closed is noticed at the next write (its control released).
+pub fn stream(mut out: Box<dyn Write + Send>, events: Receiver<String>, ping: Duration) {
     let head = "HTTP/1.1 200 OK\r\nContent-Type: text/event-stream\r\nCache-Control: no-store\r\n\
                 X-Content-Type-Options: nosniff\r\nConnection: close\r\n\r\nretry: 1000\n\n";
     if out.write_all(head.as_bytes()).and_then(|_| out.flush()).is_err() {
         return;
     }
+    let ping_text = "event: ping\ndata: {}\n\n";
+    let mut pinged = Instant::now();
     loop {
-        let text = match events.recv_timeout(Duration::from_secs(5)) {
+        let text = match events.recv_timeout(ping.saturating_sub(pinged.elapsed())) {
             Ok(t) => t,
-            Err(RecvTimeoutError::Timeout) => ": still here\n\n".into(),
+            Err(RecvTimeoutError::Timeout) => String::new(),
             Err(RecvTimeoutError::Disconnected) => return,
         };
-        if out.write_all(text.as_bytes()).and_then(|_| out.flush()).is_err() {
+        let mut write = |t: &str| out.write_all(t.as_bytes()).and_then(|_| out.flush());
+        if !text.is_empty() && write(&text).is_err() {
             return;
+        }
+        if pinged.elapsed() >= ping {
+            if write(ping_text).is_err() {
+                return;
+            }
+            pinged = Instant::now();
         }
     }
 }

@@ -37,6 +37,10 @@ const CONTROL_GRACE: Duration = Duration::from_secs(10);
 /// The longest `--seconds`: a year (more is a typo; leave it out to serve until interrupted).
 const MAX_SECONDS: u64 = 365 * 24 * 3600;
 
+/// `--control-timeout`'s range, seconds: under 3 a page's answers to the pings (a third of it
+/// apart) would race the network; over an hour a sleeping laptop keeps the rig locked all morning.
+const CONTROL_TIMEOUT: std::ops::RangeInclusive<u64> = 3..=3600;
+
 /// The page controlling the rig.
 struct Controller {
     token: String,
@@ -44,6 +48,10 @@ struct Controller {
     streams: usize,
     /// When its last stream closed (or when it took control, before it opened one).
     gone_since: Option<Instant>,
+    /// When a request carrying its token last came (its answers to the stream's pings among them).
+    /// A stream stays open while its laptop sleeps, until TCP gives up (about 15 minutes), so an
+    /// open stream alone does not prove the page is there.
+    heard: Instant,
 }
 
 /// What runs now: one job at a time, so two never drive the rig at once.
@@ -73,6 +81,8 @@ pub struct Station {
     /// The event stream.
     pub bus: Bus,
     controller: Mutex<Option<Controller>>,
+    /// How long the controller may go unheard before another page may take control.
+    control_timeout: Duration,
     job: Mutex<Option<Job>>,
     /// The devices chosen and the turntable's link.
     pub devices: devices::Devices,
@@ -187,7 +197,8 @@ impl Station {
     fn take_control(&self, offered: Option<&str>) -> Result<String, (u16, String)> {
         let mut c = lock(&self.controller);
         if let Some(held) = c.as_ref() {
-            let gone = held.streams == 0 && held.gone_since.is_some_and(|t| t.elapsed() > CONTROL_GRACE);
+            let closed = held.streams == 0 && held.gone_since.is_some_and(|t| t.elapsed() > CONTROL_GRACE);
+            let gone = closed || held.heard.elapsed() > self.control_timeout;
             if offered != Some(held.token.as_str()) && !gone {
                 return Err((
                     409,
@@ -201,13 +212,21 @@ impl Station {
             }
         }
         let token = guard::new_token().map_err(|e| (500, format!("no random token: {e}")))?;
-        *c = Some(Controller { token: token.clone(), streams: 0, gone_since: Some(Instant::now()) });
+        let now = Instant::now();
+        *c = Some(Controller { token: token.clone(), streams: 0, gone_since: Some(now), heard: now });
         Ok(token)
     }
 
-    /// True when `token` is the controller's.
+    /// True when `token` is the controller's, which is then heard from now.
     fn controls(&self, token: Option<&str>) -> bool {
-        lock(&self.controller).as_ref().is_some_and(|c| Some(c.token.as_str()) == token)
+        let mut c = lock(&self.controller);
+        match c.as_mut().filter(|h| Some(h.token.as_str()) == token) {
+            Some(held) => {
+                held.heard = Instant::now();
+                true
+            }
+            None => false,
+        }
     }
 
     /// A controller's event stream opened (`true`) or closed.
@@ -217,6 +236,7 @@ impl Station {
             if open {
                 held.streams += 1;
                 held.gone_since = None;
+                held.heard = Instant::now();
             } else {
                 held.streams = held.streams.saturating_sub(1);
                 if held.streams == 0 {
@@ -249,6 +269,14 @@ pub fn run(args: &ServeArgs) -> Result<()> {
     .validate()?;
     if args.seconds.is_some_and(|s| s > MAX_SECONDS) {
         bail!("--seconds must be at most {MAX_SECONDS} (a year); leave it out to serve until interrupted");
+    }
+    if !CONTROL_TIMEOUT.contains(&args.control_timeout) {
+        bail!(
+            "--control-timeout must be {} to {} seconds, got {}",
+            CONTROL_TIMEOUT.start(),
+            CONTROL_TIMEOUT.end(),
+            args.control_timeout
+        );
     }
     let cfg = crate::sim_cmd::world_config(&args.world)?;
     let loopback = args.bind.is_loopback();
@@ -287,6 +315,7 @@ pub fn run(args: &ServeArgs) -> Result<()> {
         square: args.square,
         bus: Bus::default(),
         controller: Mutex::new(None),
+        control_timeout: Duration::from_secs(args.control_timeout),
         job: Mutex::new(None),
         devices: devices::Devices::default(),
         calibration: Mutex::new(calibration::Wizard::default()),
@@ -371,7 +400,10 @@ fn handle(st: &Arc<Station>, page: &str, mut req: Request) {
         let ctl = guard::query_value(&url, "control");
         let events = st.bus.subscribe();
         st.stream_of(ctl.as_deref(), true);
-        events::stream(req.into_writer(), events);
+        // Pings a third of the timeout apart (at most 5 s), so a page that is there answers two or
+        // three before the timeout runs out.
+        let ping = (st.control_timeout / 3).min(Duration::from_secs(5));
+        events::stream(req.into_writer(), events, ping);
         st.stream_of(ctl.as_deref(), false);
         return;
     }
@@ -456,6 +488,8 @@ fn post(st: &Arc<Station>, path: &str, b: &Value) -> ResponseBox {
         Err(m) => error(400, &m),
     };
     match path {
+        // The controlling page's answer to a ping: it is there (`controls` noted the time).
+        "/api/alive" => json_response(200, &json!({ "alive": true })),
         "/api/release" => {
             *lock(&st.controller) = None;
             st.bus.send("state", st.state_json());

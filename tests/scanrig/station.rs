@@ -168,7 +168,8 @@ fn files(dir: &Path) -> Vec<PathBuf> {
 fn an_operator_checks_calibrates_scans_and_processes_in_the_browser() {
     let d = tempfile::tempdir().unwrap();
     let data = d.path().join("data");
-    let st = serve(&data, &[]);
+    // A short --control-timeout: the page in control must answer the station's pings to keep it.
+    let st = serve(&data, &["--control-timeout", "3"]);
     let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("station-screens");
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/browser/operator_run.py");
     let required = std::env::var_os("SCANRIG_REQUIRE_BROWSER").is_some();
@@ -202,7 +203,10 @@ fn an_operator_checks_calibrates_scans_and_processes_in_the_browser() {
         run["second_controller"].as_str().unwrap().contains("another operator")
             && run["second_buttons_disabled"] == true
     );
-    assert_eq!(run["second_refusal_logged"].as_array().unwrap().len(), 1, "the refusal, and only it");
+    assert_eq!(run["second_refusal_logged"].as_array().unwrap().len(), 2, "the two refusals, and only them");
+    // Idle past --control-timeout, the operator's page kept control by answering the pings.
+    assert!(run["second_controller_after_idle"].as_str().unwrap().contains("another operator"), "{run}");
+    assert!(run["operator_after_idle"].as_str().unwrap().contains("This page controls"), "{run}");
     // Live: every view drawn within a second of its capture; clicks answered within 200 ms while
     // the mesh was being made.
     let lags = run["lags_ms"].as_object().unwrap();
@@ -400,4 +404,63 @@ fn a_laser_rig_is_checked_and_its_line_shown_with_the_pipeline_s_own_extraction(
     assert!(live["image"].as_str().unwrap().starts_with("data:image/png;base64,"));
     // Without control, no frame.
     assert_eq!(request(&st.url, "GET", "/api/live?show=raw", None, &[]).0, 409);
+}
+
+/// A page in control whose laptop goes to sleep keeps its event stream open (nothing closes the
+/// socket until TCP gives up, about 15 minutes), so the stream alone cannot tell the station it is
+/// gone: the station pings every stream and the page in control answers. Here that page answers
+/// for 6 s, then stops reading with its stream still open; another page is refused while it
+/// answers and takes control once it has been unheard for `--control-timeout` (4 s).
+#[test]
+fn a_controlling_page_that_stops_answering_loses_control_after_the_timeout() {
+    use std::time::{Duration, Instant};
+    let d = tempfile::tempdir().unwrap();
+    let st = serve(d.path(), &["--control-timeout", "4"]);
+    let take = || request(&st.url, "POST", "/api/control", None, &[]);
+    let (status, body) = take();
+    assert_eq!(status, 200, "{body}");
+    let token: serde_json::Value = serde_json::from_str(&body).unwrap();
+    let a = token["token"].as_str().unwrap().to_string();
+    let addr = st.url.trim_start_matches("http://").split('/').next().unwrap().to_string();
+    let mut stream = TcpStream::connect(&addr).unwrap();
+    stream.set_read_timeout(Some(Duration::from_secs(10))).unwrap();
+    stream.write_all(format!("GET /api/events?control={a} HTTP/1.0\r\nHost: {addr}\r\n\r\n").as_bytes()).unwrap();
+    let awake_until = Instant::now() + Duration::from_secs(6);
+    let (url, token_a) = (st.url.clone(), a.clone());
+    // The page: answers each ping until it falls asleep, then holds its stream open unread.
+    let page = std::thread::spawn(move || {
+        let mut reader = BufReader::new(stream);
+        let (mut answered, mut last) = (0, Instant::now());
+        while Instant::now() < awake_until {
+            let mut line = String::new();
+            if reader.read_line(&mut line).unwrap_or(0) == 0 {
+                break;
+            }
+            if line.trim() == "event: ping" {
+                let (status, body) = post(&url, "/api/alive", &token_a, "{}");
+                assert_eq!(status, 200, "{body}");
+                (answered, last) = (answered + 1, Instant::now());
+            }
+        }
+        (answered, last, reader)
+    });
+    std::thread::sleep(Duration::from_secs(3));
+    let (status, body) = take();
+    assert!(status == 409 && body.contains("another operator"), "while the page answers: {status} {body}");
+    let (answered, last_answer, _asleep) = page.join().unwrap();
+    assert!(answered >= 3, "pings answered in 6 s: {answered}");
+    let (status, body) = take();
+    assert_eq!(status, 409, "just after the page fell asleep: {body}");
+    let taken = loop {
+        let (status, body) = take();
+        if status == 200 {
+            break last_answer.elapsed();
+        }
+        assert!(last_answer.elapsed() < Duration::from_secs(12), "control never passed: {status} {body}");
+        std::thread::sleep(Duration::from_millis(200));
+    };
+    assert!(taken >= Duration::from_secs(4), "control passed {taken:?} after the page's last answer");
+    // The sleeping page wakes: its answer is refused, and it watches.
+    let (status, body) = post(&st.url, "/api/alive", &a, "{}");
+    assert!(status == 409 && body.contains("another operator"), "{status} {body}");
 }

@@ -36,7 +36,11 @@
     const r = await fetch(path, { method, headers, body: body === undefined ? undefined : JSON.stringify(body) });
     let data = {};
     try { data = await r.json(); } catch (e) { data = {}; }
-    if (!r.ok) throw new Error(data.error || 'the station answered ' + r.status);
+    if (!r.ok) {
+      const e = new Error(data.error || 'the station answered ' + r.status);
+      e.status = r.status;
+      throw e;
+    }
     return data;
   }
 
@@ -68,6 +72,23 @@
     sessionStorage.setItem('scanrig-control', control);
     connect();
     showControl();
+  }
+
+  // The station pings every page on its event stream; the page in control answers, which is how
+  // the station tells an open page from one whose laptop went to sleep with its stream still open.
+  // An event's handler runs in a hidden tab too (timers there are throttled to once a minute).
+  async function answerPing() {
+    if (!control) return;
+    try {
+      await api('POST', '/api/alive', {});
+    } catch (e) {
+      if (e.status !== 409) return;
+      control = null;
+      sessionStorage.removeItem('scanrig-control');
+      connect();
+      showControl();
+      say('This page went unheard for too long (asleep, or its network gone) and another page took control: it now watches.');
+    }
   }
 
   on('take-control', () => takeControl(null));
@@ -426,6 +447,7 @@
       processed: showProcessed,
       calibration: showWizard,
       calibrated: showCalibrated,
+      ping: answerPing,
       'view-failed': (ev) => say('View ' + ev.view + ' could not be shown: ' + ev.message),
       fault: (ev) => say(ev.job + (ev.project ? ' ' + ev.project : '') + ': ' + ev.message),
     };
