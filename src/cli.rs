@@ -747,7 +747,8 @@ pub struct ReconstructArgs {
     #[arg(long)]
     pub json: bool,
     /// Write the mesh even when its cloud does not support it — far from it, inside out, facing
-    /// against its normals or leaving samples out (it is still warned about).
+    /// against its normals, leaving samples out, or coarsened by a few points far from the rest (it
+    /// is still warned about).
     #[arg(long)]
     pub force: bool,
     /// Cap the cloud's open base and top flat first, as `process` does: for a cloud in a turntable

@@ -361,8 +361,8 @@ pub struct RegisterOpts {
     pub max_correction_mm: f64,
     /// Go on past results that cannot be right (frames that contradict themselves when decoding, a
     /// refused registration correction, a mesh its cloud does not support — far from it, inside out,
-    /// facing against its normals, leaving samples out —, a quad remesh that joins a thin part's
-    /// sides), with a warning.
+    /// facing against its normals, leaving samples out, coarsened by points apart from the object —,
+    /// a quad remesh that joins a thin part's sides), with a warning.
     #[arg(long)]
     pub force: bool,
 }

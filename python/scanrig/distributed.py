@@ -152,7 +152,8 @@ def reconstruct(
     CPU) blends and marches its layers from those parts. The parts go from worker to worker; only the
     slabs' meshes come back, joined along their shared planes here. The mesh is checked as
     ``scanrig.reconstruct`` checks its own: no surface, or one far from the points, inside out,
-    facing against their normals or leaving some out (unless ``force``), raises ``StageError``;
+    facing against their normals, leaving some out or coarsened by a few points far from the rest
+    (unless ``force``), raises ``StageError``;
     anything else wrong is a ``UserWarning``."""
     if method != "adfft":
         raise ValueError(f'method: only "adfft" has leaves to spread over workers, got {method!r}')
@@ -235,7 +236,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     r.add_argument("--error", type=float)
     r.add_argument("--samples-per-cell", type=float, help="as `scanrig reconstruct --samples-per-cell` (0: keep --depth)")
     r.add_argument("--slabs", type=int, help="slabs of the sweep (default: one per CPU)")
-    r.add_argument("--force", action="store_true", help="keep a mesh its points do not support (far, inside out, facing against them, leaving some out), with a warning")
+    r.add_argument("--force", action="store_true", help="keep a mesh its points do not support (far, inside out, facing against them, leaving some out, coarsened by points far from the rest), with a warning")
     args = parser.parse_args(argv)
     # Only for this call: main() run from Python leaves the caller's warning display as it was.
     with warnings.catch_warnings():

@@ -150,8 +150,9 @@ type Mesh<'py> = (Bound<'py, PyArray2<f64>>, Bound<'py, PyArray2<i64>>, Bound<'p
 /// weights, `layers` each slab's cube layers as (first, end); it returns each slab's (vertices,
 /// triangles) in order, as `_adfft_sweep_slab` makes them. The octree, the coarse χ, the joining
 /// and the clean-up run here (thesis 5.3); the solved leaves never do. The mesh is checked as
-/// `reconstruct`'s is: none, or one far from the points, inside out, facing against their normals or
-/// leaving some out unless `force`, raises `StageError`; what else is wrong is a `UserWarning`.
+/// `reconstruct`'s is: none, or one far from the points, inside out, facing against their normals,
+/// leaving some out or coarsened by points far from the rest unless `force`, raises `StageError`;
+/// what else is wrong is a `UserWarning`.
 #[pyfunction]
 #[pyo3(signature = (points, normals, run, *, slabs=2, depth=None, error=None, samples_per_cell=None, force=false))]
 #[allow(clippy::too_many_arguments)]
@@ -219,8 +220,8 @@ fn _adfft_slabs<'py>(
     let (mesh, r) = result.map_err(errors::stage_as(&["force", "depth", "samples-per-cell"]))?;
     let stage_report = ::process::pipeline::stages::ReconstructReport::Adfft(r);
     // The single process's checks of its mesh (`scanrig.reconstruct`, `scanrig process`): no surface
-    // refused, and a mesh inside out, facing against its samples' normals, far from them or leaving
-    // some out (each unless `force`), the report's own warnings given. Without them a distributed
+    // refused, and a mesh inside out, facing against its samples' normals, far from them, leaving
+    // some out or coarsened by points apart (each unless `force`), the report's own warnings given. Without them a distributed
     // mesh was returned in silence whatever it was.
     let warnings = py
         .detach(|| ::process::pipeline::stages::checked_reconstruction(&mesh, &stage_report, cloud, force))

@@ -96,8 +96,8 @@ fn fuse<'py>(
 /// grid, or `"adfft"`, local FFT solutions over an octree blended by a partition of unity (5.3);
 /// then finished as `scanrig process` finishes its mesh, through the same stage (`stages::mesh`): the
 /// base cut at `platter_z` (`base`), the surface cut at `top_z`, `trim`, and the check that the data
-/// supports the mesh: not far from it, inside out, facing against its normals or leaving samples
-/// out (an error unless `force`). What it warns of is a `UserWarning`. Returns
+/// supports the mesh: not far from it, inside out, facing against its normals, leaving samples
+/// out or coarsened by points far from the rest (an error unless `force`). What it warns of is a `UserWarning`. Returns
 /// (vertices, triangles, report).
 #[pyfunction]
 #[pyo3(signature = (points, normals, *, method="fft", depth=None, error=None, smoothing_cells=None, memory_budget_gb=None, platter_z=None, top_z=None, base="flat", trim=None, force=false, samples_per_cell=None))]

@@ -250,8 +250,9 @@ fn registration_cannot_move_a_view_beyond_what_a_turntable_is_off() {
 /// Plausibility of a mesh: a cloud whose normals point in and out at random (as a laser scan's did)
 /// gives a mesh of handles and pockets facing against them; one whose normals all point inward, an
 /// inside-out mesh (AdFFT) or a surface made up far from the points (the global FFT, closing it at
-/// its grid's edge). Each is refused, saying so and naming --force, and written with the warning
-/// when forced. A consistent cloud of the same points passes without one.
+/// its grid's edge); and a good cloud with a few points far away, which widen the grid. Each is
+/// refused, saying so and naming --force, and written with the warning when forced. A consistent
+/// cloud of the same points passes without one.
 #[test]
 fn a_mesh_its_cloud_does_not_support_is_refused_unless_forced() {
     let d = fixtures::temp_dir("bad-support");
@@ -264,6 +265,15 @@ fn a_mesh_its_cloud_does_not_support_is_refused_unless_forced() {
         normals.push(if rng.uniform() < 0.5 { n } else { -n });
     }
     let inward: Vec<rig::Vector3> = outward.iter().map(|n| -n).collect();
+    // The good sphere with twenty points 3 m away (a reflection, a speck on the background).
+    let mut stray = rig::PointCloud::from_positions(positions.clone());
+    stray.normals = Some(outward.clone());
+    for k in 0..20 {
+        let n = rng.direction();
+        stray.positions.push(rig::Point3::new(3000.0 + k as f64 * 0.1, 0.0, 0.0) + n * 2.0);
+        stray.normals.as_mut().unwrap().push(n);
+    }
+    rig::ply::write_cloud(&d.join("stray.ply"), &stray, &Default::default()).unwrap();
     let write = |name: &str, normals: Vec<rig::Vector3>| {
         let mut cloud = rig::PointCloud::from_positions(positions.clone());
         cloud.normals = Some(normals);
@@ -283,6 +293,8 @@ fn a_mesh_its_cloud_does_not_support_is_refused_unless_forced() {
         ),
         (write("inward.ply", inward), "adfft", "the mesh is inside out", "point into the object"),
         (d.join("inward.ply"), "fft", "the mesh lies far from its cloud", "point inward"),
+        // Its mesh came out of 500-odd vertices, every one on the samples: nothing else notices.
+        (d.join("stray.ply"), "adfft", "20 of the cloud's points (0.33 %) lie apart from the rest", "scanrig fuse"),
     ];
     for (input, method, what, why) in cases {
         let out = d.join(format!("{method}_mesh.ply"));

@@ -1,6 +1,7 @@
 //! The mesh: reconstruction (ch. 5), its finish (base, trim), the support check, its colours.
 
 use super::StageError;
+use super::apart::{Apart, MAX_WIDENING, apart};
 use crate::kd_tree::PointTree;
 use crate::pipeline::records::{Fingerprint, StageCode};
 use crate::reconstruct::adfft::{AdFftParams, AdFftReport, reconstruct_adfft_counting};
@@ -174,8 +175,8 @@ fn report_warnings(report: &ReconstructReport) -> Vec<String> {
 
 /// The checks [`mesh`] makes of a bare reconstruction, for a mesh reconstructed elsewhere (AdFFT's
 /// slabs on Ray workers, joined by [`crate::reconstruct::adfft::reconstruct_adfft_slabs`]): a mesh
-/// with no surface is refused, one inside out, facing against its samples, leaving them out or far
-/// from them is refused unless `force` ([`check_support`]), and what the report says is wrong comes
+/// with no surface is refused, one inside out, facing against its samples, leaving them out, far
+/// from them or coarsened by points apart is refused unless `force` ([`check_support`]), and what the report says is wrong comes
 /// back as warnings, as the single process gives them.
 pub fn checked_reconstruction(
     mesh: &TriMesh,
@@ -238,7 +239,7 @@ pub struct MeshReport {
     #[serde(default)]
     pub finish: FinishReport,
     /// How the mesh sits on its cloud ([`check_support`]: far from it, inside out, facing against
-    /// its normals, leaving samples out), judged again when the mesh is reused.
+    /// its normals, leaving samples out, points apart), judged again when the mesh is reused.
     #[serde(default)]
     pub support: Option<Support>,
 }
@@ -363,12 +364,16 @@ pub struct Support {
     /// The samples the reconstruction left out, before its finish ([`left_out`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub left_out: Option<LeftOut>,
+    /// The cloud's points apart from the object, which widen the grid ([`apart()`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub apart: Option<Apart>,
 }
 
 /// The plausibility check of a bare reconstruction on a grid of `cell` against its `cloud` (`tree`
 /// is over its positions): inside out ([`Support::volume`]), facing against the samples' normals
-/// ([`MAX_AGAINST`]), far from the samples ([`MAX_MEDIAN_GAP`] of the diagonal) or leaving samples
-/// out ([`MAX_LEFT_OUT`]): an error unless `force`, else the warnings to give.
+/// ([`MAX_AGAINST`]), far from the samples ([`MAX_MEDIAN_GAP`] of the diagonal), leaving samples
+/// out ([`MAX_LEFT_OUT`]) or its cloud holding points apart that widen the grid more than
+/// [`MAX_WIDENING`]-fold ([`Apart`]): an error unless `force`, else the warnings to give.
 pub fn check_support(
     mesh: &TriMesh,
     cloud: rig::CloudRef<'_>,
@@ -418,7 +423,7 @@ pub fn support(mesh: &TriMesh, cloud: rig::CloudRef<'_>, tree: &PointTree) -> Op
         // No vertex on the samples' surface (a spacing of 0: every point five times over) says nothing.
         (counted > 0).then(|| turned as Real / counted as Real)
     });
-    Some(Support { median_gap, diagonal, against, volume: None, left_out: None })
+    Some(Support { median_gap, diagonal, against, volume: None, left_out: None, apart: apart(positions) })
 }
 
 /// The samples of `positions` (`tree` is over them) that a reconstruction on a grid of `cell`
@@ -457,8 +462,24 @@ fn spacing(positions: &[Point3], tree: &PointTree) -> Real {
 /// [`check_support`]'s judgement of a measured (or recorded) [`Support`]: each finding an error
 /// unless `force`, the first found refused, all of them warned of when forced.
 pub fn judge_support(support: &Support, force: bool) -> Result<Vec<String>, StageError> {
-    let Support { median_gap: median, diagonal, against, volume, left_out } = *support;
+    let Support { median_gap: median, diagonal, against, volume, left_out, apart } = *support;
     let mut found: Vec<(String, &str)> = Vec::new();
+    // First: points apart widen the grid, and the rest of what is found follows from it.
+    if let Some(a) = apart.filter(|a| a.widening > MAX_WIDENING) {
+        found.push((
+            format!(
+                "{} of the cloud's points ({:.2} %) lie apart from the rest, up to {} from it (in the cloud's units), \
+                 and widen its box {:.0}-fold: the grid's cells, and the mesh, are that much coarser than the \
+                 object alone would get",
+                a.points,
+                100.0 * a.share,
+                three_digits(a.farthest),
+                a.widening
+            ),
+            "remove them (`scanrig fuse` drops stray points; or crop the cloud); if they are a part of the object, \
+             --force keeps them",
+        ));
+    }
     // A surface without volume (a flat cloud's, closed on itself) has a sign of rounding only.
     if let Some(v) = volume.filter(|&v| v < -1e-9 * diagonal.powi(3)) {
         found.push((
@@ -584,8 +605,9 @@ pub const CLOSE: StageCode = StageCode { stage: "close", version: 1 };
 /// evaluated along rows, the same rounding kind, and its grid no finer than the samples carry; 5: the
 /// record keeps the support check's measurement, which a reused mesh is judged by again; 6: and how
 /// high the reconstruction rose above the working volume's top, for the same; 7: and whether it is inside
-/// out, faces against its samples' normals or leaves samples out, which are refused unless forced).
-pub const MESH: StageCode = StageCode { stage: "mesh", version: 7 };
+/// out, faces against its samples' normals or leaves samples out, which are refused unless forced;
+/// 8: and the cloud's points apart from the object, which widen the grid, refused the same way).
+pub const MESH: StageCode = StageCode { stage: "mesh", version: 8 };
 
 /// What the closed cloud is made from besides the fused cloud: the closing parameters.
 pub fn close_fingerprint(params: &CloseParams) -> Fingerprint {
@@ -688,7 +710,8 @@ fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -
 }
 
 /// What is wrong with a mesh, from its record alone, so a reused mesh is judged as the run that made
-/// it was: inside out, facing against its samples' normals, far from them or leaving samples out
+/// it was: inside out, facing against its samples' normals, far from them, leaving samples out or
+/// coarsened by points apart from the object
 /// (each an error unless `force`, [`judge_support`]), cut at the working volume's top, a base not
 /// cut or not closed, and what the reconstruction's report says.
 pub fn judge_mesh(report: &MeshReport, force: bool) -> Result<Vec<String>, StageError> {
@@ -808,6 +831,7 @@ mod tests {
                 against: Some(0.0),
                 volume: Some(1e4),
                 left_out: None,
+                apart: None,
             }),
         };
         assert_eq!(judge_mesh(&r, false).unwrap(), Vec::<String>::new());
@@ -829,8 +853,14 @@ mod tests {
         assert!(w.len() == 1 && w[0].contains("did not close the mesh (40 outline edges"), "{w:?}");
         // Inside out, and samples left out: refused from the record alone, both said when forced.
         let left_out = Some(LeftOut { share: 0.03, reach: 1.0, farthest: 12.0 });
-        r.support =
-            Some(Support { median_gap: 0.1, diagonal: 100.0, against: Some(0.0), volume: Some(-5e4), left_out });
+        r.support = Some(Support {
+            median_gap: 0.1,
+            diagonal: 100.0,
+            against: Some(0.0),
+            volume: Some(-5e4),
+            left_out,
+            apart: None,
+        });
         let e = judge_mesh(&r, false).unwrap_err().to_string();
         assert!(e.starts_with("the mesh is inside out"), "{e}");
         let w = judge_mesh(&r, true).unwrap();
@@ -840,7 +870,14 @@ mod tests {
             "{w:?}"
         );
         // Far from its cloud: refused unless forced, and then said.
-        r.support = Some(Support { median_gap: 30.0, diagonal: 100.0, against: None, volume: None, left_out: None });
+        r.support = Some(Support {
+            median_gap: 30.0,
+            diagonal: 100.0,
+            against: None,
+            volume: None,
+            left_out: None,
+            apart: None,
+        });
         assert!(judge_mesh(&r, false).is_err());
         assert!(judge_mesh(&r, true).unwrap().iter().any(|w| w.ends_with("(--force)")));
     }

@@ -4,6 +4,7 @@
 //! source of defaults — so a stage run alone and the same stage inside `process` write identical
 //! files for identical inputs.
 
+mod apart;
 mod fuse_stage;
 mod merge_stage;
 mod mesh_stage;
@@ -12,6 +13,7 @@ mod register_stage;
 mod remesh_stage;
 mod view_stages;
 
+pub use apart::*;
 pub use fuse_stage::*;
 pub use merge_stage::*;
 pub use mesh_stage::*;
