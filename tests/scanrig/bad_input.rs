@@ -284,6 +284,15 @@ fn a_mesh_its_cloud_does_not_support_is_refused_unless_forced() {
     let good = write("good.ply", outward);
     let o = scanrig(&[&"reconstruct", &good, &"-o", &d.join("good_mesh.ply"), &"--depth", &"7"]);
     assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
+    // A file of one point repeated has no surface whatever its normals: said so, not blamed on them.
+    let mut same = rig::PointCloud::from_positions(vec![rig::Point3::new(1.0, 2.0, 3.0); 200]);
+    same.normals = Some(vec![rig::Vector3::z(); 200]);
+    rig::ply::write_cloud(&d.join("same.ply"), &same, &Default::default()).unwrap();
+    for method in ["fft", "adfft"] {
+        let o = scanrig(&[&"reconstruct", &d.join("same.ply"), &"-o", &d.join("same_mesh.ply"), &"--method", &method]);
+        let err = stderr(&o);
+        assert!(!o.status.success() && err.contains("every point lies at the same place"), "{method}: {err}");
+    }
     let cases = [
         (
             write("random.ply", normals),

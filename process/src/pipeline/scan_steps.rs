@@ -368,12 +368,15 @@ pub(super) fn mesh_step(
 }
 
 /// A laser scan's surface between its lines is only what reconstruction makes up: too few views is
-/// the usual cause of an unsupported mesh, and the fix — not of an inside-out one, whose normals
-/// point inward however many views there are.
+/// the usual cause of an unsupported mesh (made up between the lines: far from them, facing against
+/// them, or losing some), and the fix — not of an inside-out one, whose normals point inward however
+/// many views there are, nor of stray points apart from the object.
 fn laser_hint(source: StageError, method: Method, views: usize) -> StageError {
+    use stages::Finding::{FacingAgainst, Far, LeftOut};
     match (source, method) {
-        (StageError::Implausible { what, hint }, Method::Laser) if !what.starts_with("the mesh is inside out") => {
-            StageError::Implausible {
+        (StageError::Unsupported { finding: finding @ (FacingAgainst | Far | LeftOut), what, hint }, Method::Laser) => {
+            StageError::Unsupported {
+                finding,
                 what,
                 hint: format!(
                     "this laser scan's {views} views put its lines {:.1}° apart: take more views (`scan --views`, \
@@ -432,4 +435,26 @@ pub(super) fn remesh_step(
     o.export(layout::QUADS_PLY, (layout::QUADS, step.hash), quads, |m| rig::ply::mesh_to_bytes(m, &opts))?;
     report.outputs.extend([layout::QUADS.into(), layout::QUADS_PLY.into()]);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use stages::Finding;
+
+    /// Too few views are blamed only for what sparse lines cause: a surface made up between them.
+    #[test]
+    fn a_laser_scan_is_told_to_take_more_views_only_where_views_are_the_cause() {
+        let unsupported =
+            |finding| StageError::Unsupported { finding, what: "what".into(), hint: "remove them".into() };
+        for finding in [Finding::FacingAgainst, Finding::Far, Finding::LeftOut] {
+            let e = laser_hint(unsupported(finding), Method::Laser, 6).to_string();
+            assert!(e.contains("6 views put its lines 60.0° apart") && e.ends_with("or remove them"), "{e}");
+            let e = laser_hint(unsupported(finding), Method::StructuredLight, 6).to_string();
+            assert_eq!(e, "what; remove them");
+        }
+        for finding in [Finding::Apart, Finding::InsideOut] {
+            assert_eq!(laser_hint(unsupported(finding), Method::Laser, 6).to_string(), "what; remove them");
+        }
+    }
 }

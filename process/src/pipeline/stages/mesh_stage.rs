@@ -131,14 +131,23 @@ fn reconstruct_of(
             (m, ReconstructReport::Adfft(r))
         }
     };
-    check_surface(&mesh, &report, cloud.len())?;
+    check_surface(&mesh, &report, cloud)?;
     Ok((mesh, report))
 }
 
-/// Refuses a reconstruction that made no surface at all, saying why it may have.
-fn check_surface(mesh: &TriMesh, report: &ReconstructReport, points: usize) -> Result<(), StageError> {
+/// Refuses a reconstruction of `cloud` that made no surface at all, saying why it may have.
+fn check_surface(mesh: &TriMesh, report: &ReconstructReport, cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
     if !mesh.faces.is_empty() {
         return Ok(());
+    }
+    let points = cloud.len();
+    // Every point at one place (a file of one point repeated): no extent, so no surface to find,
+    // whatever the normals say.
+    if rig::Aabb::of(cloud.positions).is_some_and(|b| b.diagonal() == 0.0) {
+        return Err(StageError::NoSurface {
+            points,
+            why: "every point lies at the same place (the cloud has no extent; check how it was exported)".into(),
+        });
     }
     let mut why = "the normals may point inward, or the cloud is spread over a far larger box than the object (a \
                    stray point far away)"
@@ -184,7 +193,7 @@ pub fn checked_reconstruction(
     cloud: rig::CloudRef<'_>,
     force: bool,
 ) -> Result<Vec<String>, StageError> {
-    check_surface(mesh, report, cloud.len())?;
+    check_surface(mesh, report, cloud)?;
     let mut warnings = check_support(mesh, cloud, &PointTree::new(cloud.positions), report.cell(), force)?;
     warnings.extend(report_warnings(report));
     Ok(warnings)
@@ -459,14 +468,31 @@ fn spacing(positions: &[Point3], tree: &PointTree) -> Real {
     0.5 * *reach.select_nth_unstable_by(mid, |a, b| a.total_cmp(b)).1
 }
 
+/// What [`judge_support`] finds wrong with a mesh on its cloud.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Finding {
+    /// The cloud holds points apart from the object that widen the grid ([`Apart`]).
+    Apart,
+    /// The mesh's faces turn inward ([`Support::volume`]).
+    InsideOut,
+    /// It faces against its samples' normals ([`MAX_AGAINST`]).
+    FacingAgainst,
+    /// It lies far from its samples ([`MAX_MEDIAN_GAP`]).
+    Far,
+    /// It leaves samples out ([`MAX_LEFT_OUT`]).
+    LeftOut,
+}
+
 /// [`check_support`]'s judgement of a measured (or recorded) [`Support`]: each finding an error
-/// unless `force`, the first found refused, all of them warned of when forced.
+/// unless `force`, the first found refused ([`StageError::Unsupported`]), all of them warned of
+/// when forced.
 pub fn judge_support(support: &Support, force: bool) -> Result<Vec<String>, StageError> {
     let Support { median_gap: median, diagonal, against, volume, left_out, apart } = *support;
-    let mut found: Vec<(String, &str)> = Vec::new();
+    let mut found: Vec<(Finding, String, &str)> = Vec::new();
     // First: points apart widen the grid, and the rest of what is found follows from it.
     if let Some(a) = apart.filter(|a| a.widening > MAX_WIDENING) {
         found.push((
+            Finding::Apart,
             format!(
                 "{} of the cloud's points ({:.2} %) lie apart from the rest, up to {} from it (in the cloud's units), \
                  and widen its box {:.0}-fold: the grid's cells, and the mesh, are that much coarser than the \
@@ -483,6 +509,7 @@ pub fn judge_support(support: &Support, force: bool) -> Result<Vec<String>, Stag
     // A surface without volume (a flat cloud's, closed on itself) has a sign of rounding only.
     if let Some(v) = volume.filter(|&v| v < -1e-9 * diagonal.powi(3)) {
         found.push((
+            Finding::InsideOut,
             format!(
                 "the mesh is inside out: its faces turn inward (it encloses {} in the cloud's units, cubed, counted \
                  negative)",
@@ -494,6 +521,7 @@ pub fn judge_support(support: &Support, force: bool) -> Result<Vec<String>, Stag
     }
     if let Some(a) = against.filter(|&a| a > MAX_AGAINST) {
         found.push((
+            Finding::FacingAgainst,
             format!(
                 "the mesh faces against the normal of the sample nearest it at {:.1} % of its vertices on the \
                  samples' surface (over {} %)",
@@ -509,6 +537,7 @@ pub fn judge_support(support: &Support, force: bool) -> Result<Vec<String>, Stag
         // In the cloud's own units: a scan's are millimetres, but a file given to `reconstruct` may be
         // in metres (the Stanford scans), where "0.00 mm" would say nothing.
         found.push((
+            Finding::Far,
             format!(
                 "the mesh lies far from its cloud: half its vertices are more than {} from any point ({:.1} % of \
                  the cloud's {} diagonal, over {} %; in the cloud's units)",
@@ -523,6 +552,7 @@ pub fn judge_support(support: &Support, force: bool) -> Result<Vec<String>, Stag
     }
     if let Some(l) = left_out.filter(|l| l.share > MAX_LEFT_OUT) {
         found.push((
+            Finding::LeftOut,
             format!(
                 "the mesh leaves out {:.1} % of the cloud's samples (over {} %): they lie more than {} from every \
                  vertex, the farthest {} (in the cloud's units)",
@@ -536,10 +566,10 @@ pub fn judge_support(support: &Support, force: bool) -> Result<Vec<String>, Stag
         ));
     }
     if force {
-        return Ok(found.into_iter().map(|(what, _)| format!("{what} (--force)")).collect());
+        return Ok(found.into_iter().map(|(_, what, _)| format!("{what} (--force)")).collect());
     }
     match found.into_iter().next() {
-        Some((what, hint)) => Err(StageError::Implausible { what, hint: hint.into() }),
+        Some((finding, what, hint)) => Err(StageError::Unsupported { finding, what, hint: hint.into() }),
         None => Ok(Vec::new()),
     }
 }

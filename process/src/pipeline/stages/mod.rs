@@ -124,6 +124,18 @@ pub enum StageError {
         /// What may cause it and what the user can do.
         hint: String,
     },
+    /// A mesh its cloud does not support ([`judge_support`]): refused unless forced. Apart from
+    /// [`StageError::Implausible`] so a caller can tell which finding it is by its kind, not by the
+    /// wording of its message.
+    #[error("{what}; {hint}")]
+    Unsupported {
+        /// Which finding.
+        finding: Finding,
+        /// What is wrong, with the figures.
+        what: String,
+        /// What may cause it and what the user can do.
+        hint: String,
+    },
     /// The cloud cannot be meshed.
     #[error(transparent)]
     Reconstruct(#[from] ReconstructError),
