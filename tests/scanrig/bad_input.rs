@@ -284,14 +284,34 @@ fn a_mesh_its_cloud_does_not_support_is_refused_unless_forced() {
     let good = write("good.ply", outward);
     let o = scanrig(&[&"reconstruct", &good, &"-o", &d.join("good_mesh.ply"), &"--depth", &"7"]);
     assert!(o.status.success() && !stderr(&o).contains("warning"), "{}", stderr(&o));
-    // A file of one point repeated has no surface whatever its normals: said so, not blamed on them.
-    let mut same = rig::PointCloud::from_positions(vec![rig::Point3::new(1.0, 2.0, 3.0); 200]);
-    same.normals = Some(vec![rig::Vector3::z(); 200]);
-    rig::ply::write_cloud(&d.join("same.ply"), &same, &Default::default()).unwrap();
-    for method in ["fft", "adfft"] {
-        let o = scanrig(&[&"reconstruct", &d.join("same.ply"), &"-o", &d.join("same_mesh.ply"), &"--method", &method]);
-        let err = stderr(&o);
-        assert!(!o.status.success() && err.contains("every point lies at the same place"), "{method}: {err}");
+    // A file of one point repeated has no surface whatever its normals: said so before anything is
+    // made, not blamed on them. A sphere with 2,000 points at the origin (missing pixels exported as
+    // zeros) is refused by `fuse` too.
+    let pile = |name: &str, mut positions: Vec<rig::Point3>, extra: usize, at: rig::Point3| {
+        positions.extend(std::iter::repeat_n(at, extra));
+        let mut cloud = rig::PointCloud::from_positions(positions);
+        cloud.normals = Some(vec![rig::Vector3::z(); cloud.positions.len()]);
+        rig::ply::write_cloud(&d.join(name), &cloud, &Default::default()).unwrap();
+        d.join(name)
+    };
+    let one_place = rig::Point3::new(1.0, 2.0, 3.0);
+    for (input, said) in [
+        (pile("few.ply", Vec::new(), 12, one_place), "12 of the cloud's points (100.0 %) lie at exactly (1, 2, 3)"),
+        (pile("same.ply", Vec::new(), 200, one_place), "200 of the cloud's points (100.0 %) lie at exactly (1, 2, 3)"),
+        (pile("zeros.ply", positions.clone(), 2000, rig::Point3::origin()), "2000 of the cloud's points (25.0 %)"),
+    ] {
+        // Fusion needs more than a dozen points before it looks at where they are.
+        let fuse = if said.starts_with("12 of") { None } else { Some(("fuse", "")) };
+        for (command, method) in [("reconstruct", "fft"), ("reconstruct", "adfft")].into_iter().chain(fuse) {
+            let out = d.join("piled.ply");
+            let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&command, &input, &"-o", &out];
+            if !method.is_empty() {
+                args.extend([&"--method" as &dyn AsRef<std::ffi::OsStr>, &method]);
+            }
+            let o = scanrig(&args);
+            let err = stderr(&o);
+            assert!(!o.status.success() && err.contains(said) && !out.exists(), "{command} {method}: {err}");
+        }
     }
     let cases = [
         (

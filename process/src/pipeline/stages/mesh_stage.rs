@@ -14,6 +14,7 @@ use rig::math::{Point3, Real};
 use rig::{PointCloud, PolyMesh, TriMesh};
 use serde::{Deserialize, Serialize};
 use serde_json::json;
+use std::collections::HashMap;
 use std::sync::atomic::AtomicUsize;
 
 /// The reconstruction method and its parameters (ch. 5).
@@ -141,14 +142,6 @@ fn check_surface(mesh: &TriMesh, report: &ReconstructReport, cloud: rig::CloudRe
         return Ok(());
     }
     let points = cloud.len();
-    // Every point at one place (a file of one point repeated): no extent, so no surface to find,
-    // whatever the normals say.
-    if rig::Aabb::of(cloud.positions).is_some_and(|b| b.diagonal() == 0.0) {
-        return Err(StageError::NoSurface {
-            points,
-            why: "every point lies at the same place (the cloud has no extent; check how it was exported)".into(),
-        });
-    }
     let mut why = "the normals may point inward, or the cloud is spread over a far larger box than the object (a \
                    stray point far away)"
         .to_string();
@@ -185,8 +178,8 @@ fn report_warnings(report: &ReconstructReport) -> Vec<String> {
 /// The checks [`mesh`] makes of a bare reconstruction, for a mesh reconstructed elsewhere (AdFFT's
 /// slabs on Ray workers, joined by [`crate::reconstruct::adfft::reconstruct_adfft_slabs`]): a mesh
 /// with no surface is refused, one inside out, facing against its samples, leaving them out, far
-/// from them or coarsened by points apart is refused unless `force` ([`check_support`]), and what the report says is wrong comes
-/// back as warnings, as the single process gives them.
+/// from them or coarsened by points apart is refused unless `force` ([`check_support`]), and what
+/// the report says is wrong comes back as warnings, as the single process gives them.
 pub fn checked_reconstruction(
     mesh: &TriMesh,
     report: &ReconstructReport,
@@ -580,8 +573,8 @@ fn three_digits(x: Real) -> String {
     format!("{x:.*}", decimals as usize)
 }
 
-/// Refuses a cloud with a NaN or infinite position or normal (every later distance would be NaN) or
-/// a zero normal.
+/// Refuses a cloud with a NaN or infinite position or normal (every later distance would be NaN), a
+/// zero normal, or a pile of points at one place ([`PILE_SHARE`]).
 pub(super) fn check_finite(cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
     let bad_point = cloud.positions.iter().position(|p| !p.coords.iter().all(|x| x.is_finite()));
     let bad_normal = cloud.normals.and_then(|n| n.iter().position(|v| !v.iter().all(|x| x.is_finite())));
@@ -594,7 +587,48 @@ pub(super) fn check_finite(cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
             return Err(StageError::ZeroNormal { index, count: zero.len() });
         }
     }
+    // Every point at one place (a file of one point repeated), however few: no extent, so no
+    // surface to find, whatever the normals say.
+    if let Some(b) = rig::Aabb::of(cloud.positions).filter(|b| b.diagonal() == 0.0) {
+        return Err(StageError::Pile { count: cloud.len(), points: cloud.len(), at: [b.min.x, b.min.y, b.min.z] });
+    }
+    if let Some((at, count)) = pile(cloud.positions) {
+        return Err(StageError::Pile { count, points: cloud.len(), at: [at.x, at.y, at.z] });
+    }
     Ok(())
+}
+
+/// The largest share of a cloud's points that may lie at exactly one place (and never more than
+/// [`PILE_POINTS`] of them): a scan's points are measured apart; a pile is what an exporter writes
+/// for the pixels it measured nothing at. 8,000 such points at the origin beside a sphere were
+/// reconstructed into a blob there (refused only as samples left out, 28.6 %).
+pub const PILE_SHARE: Real = 0.01;
+
+/// A pile of this many points or fewer is let be, however small the cloud.
+pub const PILE_POINTS: usize = 20;
+
+/// The place holding the most of `positions` exactly, with how many, when that is over
+/// [`PILE_SHARE`] of them and over [`PILE_POINTS`]. A pile that large is in a sample of 2,000
+/// points spread over the cloud about 20 times, so only places seen there three times or more are
+/// counted, in one pass.
+fn pile(positions: &[Point3]) -> Option<(Point3, usize)> {
+    // The same place, bit for bit (+0 and −0 alike).
+    let bits = |p: &Point3| p.coords.map(|x| if x == 0.0 { 0 } else { x.to_bits() });
+    let step = positions.len().div_ceil(2_000).max(1);
+    let mut sample: Vec<_> = positions.iter().step_by(step).map(|p| bits(p).into()).collect::<Vec<[u64; 3]>>();
+    sample.sort_unstable();
+    let mut counts: HashMap<[u64; 3], usize> = sample.windows(3).filter(|w| w[0] == w[2]).map(|w| (w[0], 0)).collect();
+    if counts.is_empty() {
+        return None;
+    }
+    for p in positions {
+        if let Some(c) = counts.get_mut(&<[u64; 3]>::from(bits(p))) {
+            *c += 1;
+        }
+    }
+    let limit = ((PILE_SHARE * positions.len() as Real) as usize).max(PILE_POINTS);
+    let (key, count) = counts.into_iter().max_by_key(|&(key, count)| (count, key))?;
+    (count > limit).then(|| (Point3::from(key.map(|b| if b == 0 { 0.0 } else { Real::from_bits(b) })), count))
 }
 
 /// A reconstructed mesh as it is written: with its vertex normals, which viewers shade by, and the
@@ -910,6 +944,27 @@ mod tests {
         });
         assert!(judge_mesh(&r, false).is_err());
         assert!(judge_mesh(&r, true).unwrap().iter().any(|w| w.ends_with("(--force)")));
+    }
+
+    /// A pile of points at one place is found wherever in the file it is; a cloud of points each
+    /// given five times, or a pile of under 1 %, is not one.
+    #[test]
+    fn a_pile_of_points_at_one_place_is_found() {
+        let spread: Vec<Point3> = (0..20_000).map(|i| Point3::new(i as Real * 0.01, (i % 7) as Real, 1.0)).collect();
+        assert_eq!(pile(&spread), None);
+        let fivefold: Vec<Point3> = spread.iter().flat_map(|p| [*p; 5]).collect();
+        assert_eq!(pile(&fivefold), None);
+        // 1.2 % at the origin: in a block, and every 83rd point (as a sample's stride might miss).
+        let mut block = spread.clone();
+        block.splice(5_000..5_000, [Point3::new(0.0, -0.0, 0.0); 243]);
+        assert_eq!(pile(&block), Some((Point3::origin(), 243)));
+        let every: Vec<Point3> =
+            spread.iter().enumerate().map(|(i, p)| if i % 83 == 0 { Point3::origin() } else { *p }).collect();
+        assert_eq!(pile(&every).map(|(_, n)| n), Some(20_000usize.div_ceil(83)));
+        // Under 1 %: let be.
+        let mut few = spread.clone();
+        few.extend([Point3::origin(); 150]);
+        assert_eq!(pile(&few), None);
     }
 
     #[test]

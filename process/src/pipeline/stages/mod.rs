@@ -75,6 +75,26 @@ pub enum StageError {
         /// How many.
         count: usize,
     },
+    /// Many points at exactly one place: a scanner's missing pixels written as a point (often the
+    /// origin) rather than left out.
+    #[error(
+        "{count} of the cloud's points ({:.1} %) lie at exactly ({}, {}, {}): {}",
+        100.0 * *count as Real / *points as Real, at[0], at[1], at[2],
+        if count == points {
+            "the cloud has no extent (check how it was exported)"
+        } else {
+            "missing measurements written as a point rather than left out? Remove them; they are not the \
+             object's surface"
+        }
+    )]
+    Pile {
+        /// How many points lie there.
+        count: usize,
+        /// Points in the cloud.
+        points: usize,
+        /// Where.
+        at: [Real; 3],
+    },
     /// The base could not be cut.
     #[error(transparent)]
     Base(#[from] crate::reconstruct::base::BaseError),
