@@ -48,7 +48,8 @@ struct Controller {
     streams: usize,
     /// When its last stream closed (or when it took control, before it opened one).
     gone_since: Option<Instant>,
-    /// When a request carrying its token last came (its answers to the stream's pings among them).
+    /// When it was last heard from: its answers to the stream's pings, any other request that
+    /// needs control (every POST, a live frame), and its event stream opening.
     /// A stream stays open while its laptop sleeps, until TCP gives up (about 15 minutes), so an
     /// open stream alone does not prove the page is there.
     heard: Instant,
@@ -203,7 +204,7 @@ impl Station {
                 return Err((
                     409,
                     "another operator controls the rig: this page watches, read-only (control passes when that page \
-                     releases it or closes)"
+                     releases it, closes, or goes unheard for --control-timeout)"
                         .into(),
                 ));
             }
@@ -400,8 +401,8 @@ fn handle(st: &Arc<Station>, page: &str, mut req: Request) {
         let ctl = guard::query_value(&url, "control");
         let events = st.bus.subscribe();
         st.stream_of(ctl.as_deref(), true);
-        // Pings a third of the timeout apart (at most 5 s), so a page that is there answers two or
-        // three before the timeout runs out.
+        // Pings a third of the timeout apart (at most 5 s), so a page that is there answers at least
+        // twice before the timeout runs out (six times at the default 30 s).
         let ping = (st.control_timeout / 3).min(Duration::from_secs(5));
         events::stream(req.into_writer(), events, ping);
         st.stream_of(ctl.as_deref(), false);

@@ -169,7 +169,7 @@ fn an_operator_checks_calibrates_scans_and_processes_in_the_browser() {
     let d = tempfile::tempdir().unwrap();
     let data = d.path().join("data");
     // A short --control-timeout: the page in control must answer the station's pings to keep it.
-    let st = serve(&data, &["--control-timeout", "3"]);
+    let st = serve(&data, &["--control-timeout", "5"]);
     let shots = Path::new(env!("CARGO_TARGET_TMPDIR")).join("station-screens");
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/browser/operator_run.py");
     let required = std::env::var_os("SCANRIG_REQUIRE_BROWSER").is_some();
@@ -437,14 +437,17 @@ fn a_controlling_page_that_stops_answering_loses_control_after_the_timeout() {
                 break;
             }
             if line.trim() == "event: ping" {
+                // Taken before the answer is sent: the station hears it later, never earlier.
+                let sent = Instant::now();
                 let (status, body) = post(&url, "/api/alive", &token_a, "{}");
                 assert_eq!(status, 200, "{body}");
-                (answered, last) = (answered + 1, Instant::now());
+                (answered, last) = (answered + 1, sent);
             }
         }
         (answered, last, reader)
     });
-    std::thread::sleep(Duration::from_secs(3));
+    // Past the timeout since the stream opened: only the page's answers keep control now.
+    std::thread::sleep(Duration::from_millis(5_500));
     let (status, body) = take();
     assert!(status == 409 && body.contains("another operator"), "while the page answers: {status} {body}");
     let (answered, last_answer, _asleep) = page.join().unwrap();

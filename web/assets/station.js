@@ -76,18 +76,25 @@
 
   // The station pings every page on its event stream; the page in control answers, which is how
   // the station tells an open page from one whose laptop went to sleep with its stream still open.
-  // An event's handler runs in a hidden tab too (timers there are throttled to once a minute).
+  // An event's handler runs in a hidden tab too (timers there are throttled to once a minute). A
+  // page waking from sleep gets every ping the station wrote meanwhile at once: one answer at a
+  // time, and a refusal acted on only if the token it was for is still the page's.
+  let answering = false;
   async function answerPing() {
-    if (!control) return;
+    if (!control || answering) return;
+    const sent = control;
+    answering = true;
     try {
       await api('POST', '/api/alive', {});
     } catch (e) {
-      if (e.status !== 409) return;
+      if (e.status !== 409 || control !== sent) return;
       control = null;
       sessionStorage.removeItem('scanrig-control');
       connect();
       showControl();
-      say('This page went unheard for too long (asleep, or its network gone) and another page took control: it now watches.');
+      say('This page no longer controls the rig (it went unheard for too long, or the station restarted): ' + e.message);
+    } finally {
+      answering = false;
     }
   }
 

@@ -664,7 +664,7 @@ fn bunny_error_by_outline() {
         let mut cells: Vec<(usize, usize, Real)> = Vec::new();
         for name in fixtures::BUNNY_SCANS {
             let grid = rig::ply::read_range_grid(&fixtures::bunny_scan(name).unwrap()).unwrap();
-            // Rings from the default's output, so every setting is measured over the same cells.
+            // Rings from the default's output, and the default's cells (less a setting's own lone ones).
             let (reference, _) = denoise(&grid, &DenoiseParams::default()).unwrap();
             let out = p.as_ref().map_or_else(|| grid.clone(), |p| denoise(&grid, p).unwrap().0);
             let (ring, normals) = (outline_ring(&reference, 3), least_squares_normals(&grid, 3));

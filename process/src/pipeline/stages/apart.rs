@@ -7,7 +7,6 @@
 
 use rig::math::{Point3, Real};
 use serde::{Deserialize, Serialize};
-use std::collections::HashMap;
 
 /// Cells per side of the bounding box when grouping the points: fine enough that a cluster a
 /// sixty-fourth of the box away is apart, coarse enough that a scan's samples (far closer than
@@ -46,36 +45,35 @@ pub fn apart(positions: &[Point3]) -> Option<Apart> {
     if !(side > 0.0 && side.is_finite()) {
         return None;
     }
-    let cell = side / APART_CELLS;
-    let key = |p: &Point3| {
-        let k = |x: Real, lo: Real| (((x - lo) / cell) as i64).min(APART_CELLS as i64 - 1);
-        (k(p.x, bounds.min.x), k(p.y, bounds.min.y), k(p.z, bounds.min.z))
+    let (n, cell) = (APART_CELLS as usize, side / APART_CELLS);
+    let index = |p: &Point3| {
+        let k = |x: Real, lo: Real| (((x - lo) / cell) as usize).min(n - 1);
+        (k(p.x, bounds.min.x) * n + k(p.y, bounds.min.y)) * n + k(p.z, bounds.min.z)
     };
-    let mut counts: HashMap<(i64, i64, i64), usize> = HashMap::new();
+    let mut counts = vec![0usize; n * n * n];
     for p in positions {
-        *counts.entry(key(p)).or_default() += 1;
+        counts[index(p)] += 1;
     }
     // Pieces: occupied cells joined across their 26 neighbours, each cell labelled once.
-    let mut piece: HashMap<(i64, i64, i64), usize> = HashMap::with_capacity(counts.len());
+    let mut piece = vec![usize::MAX; counts.len()];
     let mut sizes: Vec<usize> = Vec::new();
-    let mut cells: Vec<_> = counts.keys().copied().collect();
-    cells.sort_unstable();
-    for start in cells {
-        if piece.contains_key(&start) {
+    for start in 0..counts.len() {
+        if counts[start] == 0 || piece[start] != usize::MAX {
             continue;
         }
         let label = sizes.len();
         let (mut size, mut stack) = (0, vec![start]);
-        piece.insert(start, label);
-        while let Some((x, y, z)) = stack.pop() {
-            size += counts[&(x, y, z)];
-            for dx in -1..=1 {
-                for dy in -1..=1 {
-                    for dz in -1..=1 {
-                        let n = (x + dx, y + dy, z + dz);
-                        if counts.contains_key(&n) && !piece.contains_key(&n) {
-                            piece.insert(n, label);
-                            stack.push(n);
+        piece[start] = label;
+        while let Some(c) = stack.pop() {
+            size += counts[c];
+            let (x, y, z) = (c / (n * n), c / n % n, c % n);
+            for nx in x.saturating_sub(1)..=(x + 1).min(n - 1) {
+                for ny in y.saturating_sub(1)..=(y + 1).min(n - 1) {
+                    for nz in z.saturating_sub(1)..=(z + 1).min(n - 1) {
+                        let m = (nx * n + ny) * n + nz;
+                        if counts[m] > 0 && piece[m] == usize::MAX {
+                            piece[m] = label;
+                            stack.push(m);
                         }
                     }
                 }
@@ -87,7 +85,7 @@ pub fn apart(positions: &[Point3]) -> Option<Apart> {
     let (mut lo, mut hi) = (Point3::from([Real::INFINITY; 3]), Point3::from([Real::NEG_INFINITY; 3]));
     let mut points = 0;
     for p in positions {
-        if small(piece[&key(p)]) {
+        if small(piece[index(p)]) {
             points += 1;
         } else {
             lo = lo.inf(p);
@@ -99,8 +97,13 @@ pub fn apart(positions: &[Point3]) -> Option<Apart> {
     }
     let farthest = positions
         .iter()
-        .filter(|p| small(piece[&key(p)]))
-        .map(|p| (p.coords - p.coords.sup(&lo.coords).inf(&hi.coords)).norm())
+        .filter(|p| small(piece[index(p)]))
+        .map(|p| {
+            // Scaled by its largest coordinate first: far-off coordinates (1e300) square to infinity.
+            let d = p.coords - p.coords.sup(&lo.coords).inf(&hi.coords);
+            let m = d.amax();
+            if m > 0.0 { m * (d / m).norm() } else { 0.0 }
+        })
         .fold(0.0, Real::max);
     // An object of no extent (all its points at one place) is widened without bound.
     let widening = side / widest(&lo, &hi).max(1e-12 * side);
@@ -150,5 +153,10 @@ mod tests {
         let a = apart(&one).unwrap();
         assert!(a.points == 1 && a.widening.is_finite() && a.widening > 1e6, "{a:?}");
         assert_eq!(apart(&[]), None);
+        // A stray point at 1e300: its distance is said, not infinity.
+        let mut far = body.clone();
+        far.push(Point3::new(1e300, 1e300, 0.0));
+        let a = apart(&far).unwrap();
+        assert!(a.points == 1 && a.farthest.is_finite() && a.farthest > 1e300, "{a:?}");
     }
 }

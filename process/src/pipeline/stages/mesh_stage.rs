@@ -391,6 +391,13 @@ pub fn check_support(
     measured.map_or(Ok(Vec::new()), |s| judge_support(&s, force))
 }
 
+impl Support {
+    /// A support with nothing measured: judging it finds nothing.
+    fn unmeasured() -> Support {
+        Support { median_gap: 0.0, diagonal: 0.0, against: None, volume: None, left_out: None, apart: None }
+    }
+}
+
 /// [`check_support`]'s measurement, all but the volume and the samples left out (the caller
 /// measures those on the mesh before its finish opens it); `None` for an empty cloud or mesh.
 pub fn support(mesh: &TriMesh, cloud: rig::CloudRef<'_>, tree: &PointTree) -> Option<Support> {
@@ -495,8 +502,8 @@ pub fn judge_support(support: &Support, force: bool) -> Result<Vec<String>, Stag
                 three_digits(a.farthest),
                 a.widening
             ),
-            "remove them (`scanrig fuse` drops stray points; or crop the cloud); if they are a part of the object, \
-             --force keeps them",
+            "crop them off (`scanrig fuse` drops them where they are few and scattered); if they are a part of \
+             the object, --force keeps them",
         ));
     }
     // A surface without volume (a flat cloud's, closed on itself) has a sign of rounding only.
@@ -589,7 +596,7 @@ pub(super) fn check_finite(cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
     }
     // Every point at one place (a file of one point repeated), however few: no extent, so no
     // surface to find, whatever the normals say.
-    if let Some(b) = rig::Aabb::of(cloud.positions).filter(|b| b.diagonal() == 0.0) {
+    if let Some(b) = rig::Aabb::of(cloud.positions).filter(|b| b.min == b.max) {
         return Err(StageError::Pile { count: cloud.len(), points: cloud.len(), at: [b.min.x, b.min.y, b.min.z] });
     }
     if let Some((at, count)) = pile(cloud.positions) {
@@ -610,19 +617,25 @@ pub const PILE_POINTS: usize = 20;
 /// The place holding the most of `positions` exactly, with how many, when that is over
 /// [`PILE_SHARE`] of them and over [`PILE_POINTS`]. A pile that large is in a sample of 2,000
 /// points spread over the cloud about 20 times, so only places seen there three times or more are
-/// counted, in one pass.
+/// counted, in one pass. The sample takes one point from each run of the cloud at a place in it
+/// drawn at random (seeded: the same every time): a fixed stride would never see a pile laid out in
+/// step with it, as a grid export's invalid border columns are.
 fn pile(positions: &[Point3]) -> Option<(Point3, usize)> {
     // The same place, bit for bit (+0 and −0 alike).
-    let bits = |p: &Point3| p.coords.map(|x| if x == 0.0 { 0 } else { x.to_bits() });
+    let bits = |p: &Point3| -> [u64; 3] { p.coords.map(|x| if x == 0.0 { 0 } else { x.to_bits() }).into() };
     let step = positions.len().div_ceil(2_000).max(1);
-    let mut sample: Vec<_> = positions.iter().step_by(step).map(|p| bits(p).into()).collect::<Vec<[u64; 3]>>();
+    let mut draw = rig::split_mix::SplitMix(0x5ca1ab1e);
+    let mut sample: Vec<[u64; 3]> = (0..positions.len())
+        .step_by(step)
+        .map(|start| bits(&positions[start + draw.below(step.min(positions.len() - start))]))
+        .collect();
     sample.sort_unstable();
     let mut counts: HashMap<[u64; 3], usize> = sample.windows(3).filter(|w| w[0] == w[2]).map(|w| (w[0], 0)).collect();
     if counts.is_empty() {
         return None;
     }
     for p in positions {
-        if let Some(c) = counts.get_mut(&<[u64; 3]>::from(bits(p))) {
+        if let Some(c) = counts.get_mut(&bits(p)) {
             *c += 1;
         }
     }
@@ -751,6 +764,14 @@ pub fn mesh_counting<'a>(
 /// [`mesh_counting`]'s body, compiled once here rather than into every caller's crate.
 fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -> Result<MeshMade, StageError> {
     params.validate()?;
+    // Points apart from the object depend on the cloud alone: refused before a reconstruction that
+    // may take minutes (and judged again with the mesh's support, as a reused mesh is).
+    check_finite(input)?;
+    if !params.force
+        && let Some(a) = apart(input.positions)
+    {
+        judge_support(&Support { apart: Some(a), ..Support::unmeasured() }, false)?;
+    }
     let tree = PointTree::new(input.positions);
     let (mesh, reconstructed) = reconstruct_in(input, &params.reconstruct, Some(&tree), steps)?;
     // Measured before the finish cuts the base or trims: the bare reconstruction is closed, and
@@ -961,6 +982,14 @@ mod tests {
         let every: Vec<Point3> =
             spread.iter().enumerate().map(|(i, p)| if i % 83 == 0 { Point3::origin() } else { *p }).collect();
         assert_eq!(pile(&every).map(|(_, n)| n), Some(20_000usize.div_ceil(83)));
+        // In step with the sample's runs (10 points each here): every 10th point, and the last two
+        // of every run of 100 (a grid's right border).
+        let in_step: Vec<Point3> =
+            spread.iter().enumerate().map(|(i, p)| if i % 10 == 7 { Point3::origin() } else { *p }).collect();
+        assert_eq!(pile(&in_step).map(|(_, n)| n), Some(2_000));
+        let border: Vec<Point3> =
+            spread.iter().enumerate().map(|(i, p)| if i % 100 >= 98 { Point3::origin() } else { *p }).collect();
+        assert_eq!(pile(&border).map(|(_, n)| n), Some(400));
         // Under 1 %: let be.
         let mut few = spread.clone();
         few.extend([Point3::origin(); 150]);
