@@ -33,6 +33,7 @@ pub fn run(args: &RemeshArgs) -> Result<()> {
         params.conductivity = Some(rig::remesh_inputs::read_face_values(path, mesh.faces.len())?);
     }
     let context = || format!("remeshing {}", args.input.display());
+    let mut warnings = stages::check_remesh_input(&mesh, args.force).with_context(context)?;
     let mut progress = crate::progress::Progress::new();
     let (quads, report) = process::pipeline::watch::watched(
         process::remesh::quad_remesh::REMESH_PHASES,
@@ -42,7 +43,7 @@ pub fn run(args: &RemeshArgs) -> Result<()> {
     .with_context(context)?;
     progress.finish();
     // Checked before anything is written: an unforced implausible remesh leaves no file.
-    let warnings = stages::check_remesh(&report, args.force).with_context(context)?;
+    warnings.extend(stages::check_remesh(&report, args.force).with_context(context)?);
     rig::write_mesh(&args.out, &quads, &Default::default())?;
     for w in &warnings {
         eprintln!("warning: {}: {w}", args.out.display());

@@ -237,8 +237,9 @@ fn remesh<'py>(
         ..d
     };
     let (quads, r, warnings) = interruptible(py, move || {
+        let mut warnings = stages::check_remesh_input(&mesh, force)?;
         let (quads, r) = stages::remesh(&mesh, &params)?;
-        let warnings = stages::check_remesh(&r, force)?;
+        warnings.extend(stages::check_remesh(&r, force)?);
         Ok::<_, stages::StageError>((quads, r, warnings))
     })?
     .map_err(errors::stage_as(REMESH_KEYWORDS))?;

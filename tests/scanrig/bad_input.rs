@@ -397,7 +397,18 @@ fn a_remesh_that_joins_a_thin_parts_sides_is_refused_unless_forced() {
     rig::ply::write_mesh(&far, &stray.to_poly(), &Default::default()).unwrap();
     let o = scanrig(&[&"remesh", &far, &"-o", &d.join("stray_quads.obj")]);
     let err = stderr(&o);
-    assert!(!o.status.success() && err.contains("strays") && err.contains("ring_and_stray.ply"), "{err}");
+    assert!(
+        !o.status.success()
+            && err.contains("ring_and_stray.ply")
+            && err.contains("1 of the mesh's vertices")
+            && err.contains("lie apart from the rest, up to 1.73e30")
+            && err.contains("--force"),
+        "{err}"
+    );
+    // Forced, it is remeshed and written, warned of twice: the vertex apart, and quads that stray.
+    let o = scanrig(&[&"remesh", &far, &"-o", &d.join("stray_quads.obj"), &"--force"]);
+    let err = stderr(&o);
+    assert!(o.status.success() && err.contains("lie apart from the rest") && err.contains("strays"), "{err}");
     // The coarsest Stanford bunny was refused the same way (5.4 quads off): its pieces that meet
     // along edges of three or more triangles were one part to the line graph, whose largest
     // component then won them all. Each is now a part of its own.

@@ -34,6 +34,31 @@ pub struct Apart {
     pub farthest: Real,
 }
 
+impl Apart {
+    /// What a refusal says of them: `whose` names the points ("the cloud's points"), `coarser` what
+    /// the widened box makes coarser.
+    pub fn describe(&self, whose: &str, coarser: &str) -> String {
+        format!(
+            "{} of {whose} ({:.2} %) lie apart from the rest, up to {} from it (in its units), and widen its box \
+             {}-fold: {coarser}",
+            self.points,
+            100.0 * self.share,
+            figure(self.farthest),
+            figure(self.widening.round())
+        )
+    }
+}
+
+/// A figure as a person reads it: three significant digits, and powers of ten past a million (an
+/// exporter's stray vertex at 1e30).
+fn figure(x: Real) -> String {
+    if x.abs() >= 1e6 {
+        return format!("{x:.2e}");
+    }
+    let decimals = if x > 0.0 { (2 - x.log10().floor() as i32).clamp(0, 12) } else { 2 };
+    format!("{x:.*}", decimals as usize)
+}
+
 /// The points of `positions` apart from the rest: the occupied cells of a grid of [`APART_CELLS`]
 /// per side of the cloud's box, joined into pieces across faces, edges and corners; pieces holding
 /// under [`MAX_APART_SHARE`] of the points are apart. `None` when nothing is apart, or when every
@@ -105,8 +130,10 @@ pub fn apart(positions: &[Point3]) -> Option<Apart> {
             if m > 0.0 { m * (d / m).norm() } else { 0.0 }
         })
         .fold(0.0, Real::max);
-    // An object of no extent (all its points at one place) is widened without bound.
-    let widening = side / widest(&lo, &hi).max(1e-12 * side);
+    // An object of no extent (all its points at one place) is widened without bound: the largest
+    // figure there is, not infinity (which JSON cannot hold).
+    let body = widest(&lo, &hi);
+    let widening = if body > 0.0 { (side / body).min(Real::MAX) } else { Real::MAX };
     Some(Apart { points, share: points as Real / positions.len() as Real, widening, farthest })
 }
 
@@ -151,12 +178,14 @@ mod tests {
         let mut one = vec![Point3::new(1.0, 2.0, 3.0); 500];
         one.push(Point3::new(900.0, 2.0, 3.0));
         let a = apart(&one).unwrap();
-        assert!(a.points == 1 && a.widening.is_finite() && a.widening > 1e6, "{a:?}");
+        assert!(a.points == 1 && a.widening == Real::MAX, "{a:?}");
         assert_eq!(apart(&[]), None);
         // A stray point at 1e300: its distance is said, not infinity.
         let mut far = body.clone();
         far.push(Point3::new(1e300, 1e300, 0.0));
         let a = apart(&far).unwrap();
         assert!(a.points == 1 && a.farthest.is_finite() && a.farthest > 1e300, "{a:?}");
+        let said = a.describe("the cloud's points", "coarser");
+        assert!(said.starts_with("1 of the cloud's points (0.00 %)") && said.contains("up to 1.41e300"), "{said}");
     }
 }

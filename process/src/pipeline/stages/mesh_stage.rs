@@ -493,14 +493,9 @@ pub fn judge_support(support: &Support, force: bool) -> Result<Vec<String>, Stag
     if let Some(a) = apart.filter(|a| a.widening > MAX_WIDENING) {
         found.push((
             Finding::Apart,
-            format!(
-                "{} of the cloud's points ({:.2} %) lie apart from the rest, up to {} from it (in the cloud's units), \
-                 and widen its box {:.0}-fold: the grid's cells, and the mesh, are that much coarser than the \
-                 object alone would get",
-                a.points,
-                100.0 * a.share,
-                three_digits(a.farthest),
-                a.widening
+            a.describe(
+                "the cloud's points",
+                "the grid's cells, and the mesh, are that much coarser than the object alone would get",
             ),
             "crop them off (`scanrig fuse` drops them where they are few and scattered); if they are a part of \
              the object, --force keeps them",

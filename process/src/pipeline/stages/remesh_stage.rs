@@ -7,6 +7,25 @@ use rig::math::Real;
 use rig::{PolyMesh, TriMesh};
 use serde_json::json;
 
+/// Refuses to remesh a mesh whose vertices include a few far from the rest ([`super::apart()`])
+/// unless `force`, else the warning to give: the quads' default spacing follows the mesh's size,
+/// so a stray vertex makes them that much coarser (one 10³⁰ mm out, an exporter's garbage, was
+/// refused only after the remesh, as quads straying 10²⁹ mm from the input).
+pub fn check_remesh_input(mesh: &TriMesh, force: bool) -> Result<Vec<String>, StageError> {
+    let Some(a) = super::apart(&mesh.vertices).filter(|a| a.widening > super::MAX_WIDENING) else {
+        return Ok(Vec::new());
+    };
+    let what = a.describe("the mesh's vertices", "the default quads, sized to the box, are that much coarser");
+    if force {
+        return Ok(vec![format!("{what} (--force)")]);
+    }
+    Err(StageError::Implausible {
+        what,
+        hint: "remove them (an exporter's stray vertices?); if they are a part of the object, --force keeps them"
+            .into(),
+    })
+}
+
 /// A quad mesh of a triangle mesh (ch. 6).
 pub fn remesh(mesh: &TriMesh, params: &RemeshParams) -> Result<(PolyMesh, RemeshReport), StageError> {
     remesh_counting(mesh, params, &std::sync::atomic::AtomicUsize::new(0))
