@@ -782,7 +782,8 @@ pub struct RemeshArgs {
     #[arg(long)]
     pub json: bool,
     /// Write the quad mesh even when it cannot be right: edges of three faces or holes its input lacks,
-    /// or surface far from it (it is still warned about).
+    /// or surface far from it; and remesh an input with a few vertices far from the rest (it is still
+    /// warned about).
     #[arg(long)]
     pub force: bool,
 }
