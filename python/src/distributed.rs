@@ -221,8 +221,8 @@ fn _adfft_slabs<'py>(
     let stage_report = ::process::pipeline::stages::ReconstructReport::Adfft(r);
     // The single process's checks of its mesh (`scanrig.reconstruct`, `scanrig process`): no surface
     // refused, and a mesh inside out, facing against its samples' normals, far from them, leaving
-    // some out or coarsened by points apart (each unless `force`), the report's own warnings given. Without them a distributed
-    // mesh was returned in silence whatever it was.
+    // some out or coarsened by points apart (each unless `force`), the report's own warnings given.
+    // Without them a distributed mesh was returned in silence whatever it was.
     let warnings = py
         .detach(|| ::process::pipeline::stages::checked_reconstruction(&mesh, &stage_report, cloud, force))
         .map_err(errors::stage_as(&["force", "depth", "samples-per-cell"]))?;

@@ -5,6 +5,7 @@
 //! with exit 0: nothing else in the support check notices, because every vertex still lies on the
 //! samples.
 
+use super::mesh_stage::three_digits;
 use rig::math::{Point3, Real};
 use serde::{Deserialize, Serialize};
 
@@ -43,20 +44,10 @@ impl Apart {
              {}-fold: {coarser}",
             self.points,
             100.0 * self.share,
-            figure(self.farthest),
-            figure(self.widening.round())
+            three_digits(self.farthest),
+            three_digits(self.widening.round())
         )
     }
-}
-
-/// A figure as a person reads it: three significant digits, and powers of ten past a million (an
-/// exporter's stray vertex at 1e30).
-fn figure(x: Real) -> String {
-    if x.abs() >= 1e6 {
-        return format!("{x:.2e}");
-    }
-    let decimals = if x > 0.0 { (2 - x.log10().floor() as i32).clamp(0, 12) } else { 2 };
-    format!("{x:.*}", decimals as usize)
 }
 
 /// The points of `positions` apart from the rest: the occupied cells of a grid of [`APART_CELLS`]

@@ -1,7 +1,7 @@
 //! Fusion: mean shift (ch. 3) and, for clouds without normals, their orientation.
 
 use super::StageError;
-use super::mesh_stage::check_finite;
+use super::mesh_stage::check_cloud;
 use crate::fuse::mean_shift::{MeanShiftParams, MeanShiftReport};
 use crate::pipeline::records::{Fingerprint, StageCode};
 pub use crate::reconstruct::base::{Base, BaseReport};
@@ -84,7 +84,7 @@ pub fn fuse_borrowed(cloud: rig::CloudRef<'_>, params: &FuseParams) -> Result<(F
 
 fn check_fusable(cloud: rig::CloudRef<'_>, params: &FuseParams) -> Result<(), StageError> {
     params.validate_for(cloud.len())?;
-    check_finite(cloud)?;
+    check_cloud(cloud)?;
     let k = params.mean_shift.k;
     if cloud.len() <= k.max(params.mean_shift.density_k) {
         return Err(StageError::TooFewPoints { points: cloud.len(), k });

@@ -120,7 +120,7 @@ fn reconstruct_of(
     tree: Option<&PointTree>,
     steps: &AtomicUsize,
 ) -> Result<(TriMesh, ReconstructReport), StageError> {
-    check_finite(cloud)?;
+    check_cloud(cloud)?;
     params.validate_for(rig::Aabb::of(cloud.positions).map_or(0.0, |b| b.diagonal()))?;
     let (mesh, report) = match params {
         ReconstructParams::Fft(p) => {
@@ -132,16 +132,15 @@ fn reconstruct_of(
             (m, ReconstructReport::Adfft(r))
         }
     };
-    check_surface(&mesh, &report, cloud)?;
+    check_surface(&mesh, &report, cloud.len())?;
     Ok((mesh, report))
 }
 
-/// Refuses a reconstruction of `cloud` that made no surface at all, saying why it may have.
-fn check_surface(mesh: &TriMesh, report: &ReconstructReport, cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
+/// Refuses a reconstruction that made no surface at all, saying why it may have.
+fn check_surface(mesh: &TriMesh, report: &ReconstructReport, points: usize) -> Result<(), StageError> {
     if !mesh.faces.is_empty() {
         return Ok(());
     }
-    let points = cloud.len();
     let mut why = "the normals may point inward, or the cloud is spread over a far larger box than the object (a \
                    stray point far away)"
         .to_string();
@@ -186,7 +185,7 @@ pub fn checked_reconstruction(
     cloud: rig::CloudRef<'_>,
     force: bool,
 ) -> Result<Vec<String>, StageError> {
-    check_surface(mesh, report, cloud)?;
+    check_surface(mesh, report, cloud.len())?;
     let mut warnings = check_support(mesh, cloud, &PointTree::new(cloud.positions), report.cell(), force)?;
     warnings.extend(report_warnings(report));
     Ok(warnings)
@@ -386,6 +385,7 @@ pub fn check_support(
     let measured = support(mesh, cloud, tree).map(|s| Support {
         volume: Some(mesh.signed_volume()),
         left_out: left_out(mesh, cloud.positions, tree, cell),
+        apart: apart(cloud.positions),
         ..s
     });
     measured.map_or(Ok(Vec::new()), |s| judge_support(&s, force))
@@ -399,7 +399,8 @@ impl Support {
 }
 
 /// [`check_support`]'s measurement, all but the volume and the samples left out (the caller
-/// measures those on the mesh before its finish opens it); `None` for an empty cloud or mesh.
+/// measures those on the mesh before its finish opens it) and the points apart (the cloud's alone,
+/// which the caller may have measured before reconstructing); `None` for an empty cloud or mesh.
 pub fn support(mesh: &TriMesh, cloud: rig::CloudRef<'_>, tree: &PointTree) -> Option<Support> {
     let positions = cloud.positions;
     let bounds = rig::Aabb::of(positions)?;
@@ -432,7 +433,7 @@ pub fn support(mesh: &TriMesh, cloud: rig::CloudRef<'_>, tree: &PointTree) -> Op
         // No vertex on the samples' surface (a spacing of 0: every point five times over) says nothing.
         (counted > 0).then(|| turned as Real / counted as Real)
     });
-    Some(Support { median_gap, diagonal, against, volume: None, left_out: None, apart: apart(positions) })
+    Some(Support { median_gap, diagonal, against, volume: None, left_out: None, apart: None })
 }
 
 /// The samples of `positions` (`tree` is over them) that a reconstruction on a grid of `cell`
@@ -569,15 +570,19 @@ pub fn judge_support(support: &Support, force: bool) -> Result<Vec<String>, Stag
     }
 }
 
-/// `x` to three significant digits, whatever its scale (1234 → "1234", 0.0123456 → "0.0123").
-fn three_digits(x: Real) -> String {
+/// `x` to three significant digits, whatever its scale (1234 → "1234", 0.0123456 → "0.0123"),
+/// in powers of ten past a million (an exporter's stray vertex at 1e30: "1.73e30").
+pub(super) fn three_digits(x: Real) -> String {
+    if x.abs() >= 1e6 && x.is_finite() {
+        return format!("{x:.2e}");
+    }
     let decimals = if x > 0.0 && x.is_finite() { (2 - x.log10().floor() as i32).clamp(0, 12) } else { 2 };
     format!("{x:.*}", decimals as usize)
 }
 
-/// Refuses a cloud with a NaN or infinite position or normal (every later distance would be NaN), a
-/// zero normal, or a pile of points at one place ([`PILE_SHARE`]).
-pub(super) fn check_finite(cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
+/// Refuses a cloud no stage can use: a NaN or infinite position or normal (every later distance
+/// would be NaN), a zero normal, or a pile of points at one place ([`PILE_SHARE`]).
+pub(super) fn check_cloud(cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
     let bad_point = cloud.positions.iter().position(|p| !p.coords.iter().all(|x| x.is_finite()));
     let bad_normal = cloud.normals.and_then(|n| n.iter().position(|v| !v.iter().all(|x| x.is_finite())));
     if let Some(index) = bad_point.into_iter().chain(bad_normal).min() {
@@ -600,8 +605,8 @@ pub(super) fn check_finite(cloud: rig::CloudRef<'_>) -> Result<(), StageError> {
     Ok(())
 }
 
-/// The largest share of a cloud's points that may lie at exactly one place (and never more than
-/// [`PILE_POINTS`] of them): a scan's points are measured apart; a pile is what an exporter writes
+/// The largest share of a cloud's points that may lie at exactly one place (a pile is refused only
+/// when it also holds over [`PILE_POINTS`]): a scan's points are measured apart; a pile is what an exporter writes
 /// for the pixels it measured nothing at. 8,000 such points at the origin beside a sphere were
 /// reconstructed into a blob there (refused only as samples left out, 28.6 %).
 pub const PILE_SHARE: Real = 0.01;
@@ -689,7 +694,7 @@ pub fn close_fingerprint(params: &CloseParams) -> Fingerprint {
 /// Closing a turntable scan's openings: flat caps of samples over its open base and top (object
 /// frame), so reconstruction closes them flat ([`crate::reconstruct::closing`]).
 pub fn close(cloud: &PointCloud, params: &CloseParams) -> Result<(PointCloud, CloseReport), StageError> {
-    check_finite(cloud.borrowed())?;
+    check_cloud(cloud.borrowed())?;
     Ok(close_openings(cloud, params))
 }
 
@@ -760,12 +765,13 @@ pub fn mesh_counting<'a>(
 fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -> Result<MeshMade, StageError> {
     params.validate()?;
     // Points apart from the object depend on the cloud alone: refused before a reconstruction that
-    // may take minutes (and judged again with the mesh's support, as a reused mesh is).
-    check_finite(input)?;
-    if !params.force
-        && let Some(a) = apart(input.positions)
-    {
-        judge_support(&Support { apart: Some(a), ..Support::unmeasured() }, false)?;
+    // may take minutes (and kept with the mesh's support, judged again as a reused mesh is). A cloud
+    // no stage can use is refused first, by what is wrong with it (the reconstruction checks it
+    // again: a pass over the points, a millisecond on the ten bunny scans).
+    check_cloud(input)?;
+    let apart = apart(input.positions);
+    if !params.force {
+        judge_support(&Support { apart, ..Support::unmeasured() }, false)?;
     }
     let tree = PointTree::new(input.positions);
     let (mesh, reconstructed) = reconstruct_in(input, &params.reconstruct, Some(&tree), steps)?;
@@ -779,7 +785,7 @@ fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -
             (mesh, finish.top, finish.rose_to) = (cut, Some(r), Some(high));
         }
     }
-    let support = support(&mesh, input, &tree).map(|s| Support { volume: Some(volume), left_out: left, ..s });
+    let support = support(&mesh, input, &tree).map(|s| Support { volume: Some(volume), left_out: left, apart, ..s });
     let report = MeshReport { reconstruct: reconstructed, finish, support };
     // Checked before anything is written: unforced, an unsupported mesh leaves no mesh file.
     let warnings = judge_mesh(&report, params.force)?;
@@ -997,5 +1003,6 @@ mod tests {
         assert_eq!(three_digits(12.345), "12.3");
         assert_eq!(three_digits(0.0123456), "0.0123");
         assert_eq!(three_digits(0.0), "0.00");
+        assert_eq!(three_digits(1.732e30), "1.73e30");
     }
 }
