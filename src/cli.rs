@@ -679,6 +679,11 @@ pub struct ServeArgs {
     /// seconds while it is open; a closed page lets go after 10 s.
     #[arg(long, default_value_t = 30)]
     pub control_timeout: u64,
+    /// Show the projector's patterns in a fullscreen window on this monitor (feature
+    /// `projector-window`): a real structured-light rig's check, live view, calibration and scans
+    /// need it; the simulator's projector is driven either way.
+    #[arg(long)]
+    pub projector_monitor: Option<usize>,
     /// The virtual rig (the simulator's camera and projector and the virtual turntable, offered as
     /// devices beside real ones).
     #[command(flatten)]

@@ -199,14 +199,16 @@ pub(crate) fn open_v4l2(path: &str, _rig: &rig::Rig) -> Result<Box<dyn Camera>> 
     bail!("{path}: this scanrig was built without V4L2 support; rebuild with `--features v4l2`")
 }
 
+/// The projector's fullscreen window on `monitor`, at the size of `rig`'s projector (`scan` and the
+/// station's `--projector-monitor`).
 #[cfg(feature = "projector-window")]
-fn open_window(monitor: usize, rig: &rig::Rig) -> Result<Box<dyn PatternOutput>> {
+pub(crate) fn open_window(monitor: usize, rig: &rig::Rig) -> Result<Box<dyn PatternOutput + Send>> {
     let p = rig.projector.as_ref().ok_or_else(|| anyhow::anyhow!("the rig has no projector to show patterns on"))?;
     Ok(Box::new(acquire::projector_window::WindowProjector::open(Some(monitor), p.lens.width, p.lens.height, p.gamma)?))
 }
 
 #[cfg(not(feature = "projector-window"))]
-fn open_window(_monitor: usize, _rig: &rig::Rig) -> Result<Box<dyn PatternOutput>> {
+pub(crate) fn open_window(_monitor: usize, _rig: &rig::Rig) -> Result<Box<dyn PatternOutput + Send>> {
     bail!("this scanrig was built without the projector window; rebuild with `--features projector-window`")
 }
 

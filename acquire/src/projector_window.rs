@@ -175,11 +175,15 @@ impl PatternOutput for WindowProjector {
                 g * 0x0001_0101
             })
             .collect();
-        // A confirmation that came after an earlier show timed out belongs to that pattern.
-        while self.presented.try_recv().is_ok() {}
+        // A confirmation that came after an earlier show timed out belongs to that pattern; a window
+        // that could not open (a monitor not there) said why before its loop ended.
+        let mut why = None;
+        while let Ok(r) = self.presented.try_recv() {
+            why = r.err().or(why);
+        }
         self.proxy
             .send_event(Msg::Show(frame))
-            .map_err(|_| CameraError::Unavailable("the projector window has closed".into()))?;
+            .map_err(|_| CameraError::Unavailable(why.unwrap_or_else(|| "the projector window has closed".into())))?;
         self.presented
             .recv_timeout(Duration::from_secs(5))
             .map_err(|_| CameraError::Unavailable("the projector window did not present the pattern".into()))?

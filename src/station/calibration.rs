@@ -187,7 +187,7 @@ fn take_one(
     let simulated = st.devices.camera() == CameraChoice::Simulator;
     let what = super::live::Shooting { cfg: &cfg, scene, program, seed };
     let mut camera = super::live::live_camera(st, what, link, &shown)?;
-    let mut projector = crate::virtual_rig::SimProjector(shown.clone());
+    let mut projector = st.projector_for(rig, &shown, program)?;
     let mut plan = acquire::Plan::full_turn(Method::Board, program.to_vec(), 1);
     plan.angles = vec![angle];
     plan.settle = if link.board.is_some() { Duration::ZERO } else { Duration::from_millis(200) };

@@ -3,10 +3,11 @@
 //! angle asked (the board's pose before and after a turn, about the rig's axis); each laser and the
 //! projector light the scene. Each verdict says what to do when it fails.
 
+use super::Station;
 use super::devices::CameraChoice;
 use super::live::{Shooting, check_program, live_camera, saturated, shoot};
-use super::{Station, lock};
 use acquire::Turntable;
+use acquire::camera::PatternOutput;
 use anyhow::Result;
 use rig::Pattern;
 use rig::image::Image8;
@@ -76,6 +77,7 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
     let what = Shooting { cfg: &cfg, scene: &scene, program: &program, seed: st.world.seed };
     let mut camera = live_camera(st, what, link, &shown)?;
     let camera = camera.as_mut();
+    let mut projector = st.projector_for(rig, &shown, &program)?;
     let t = &mut link.turntable;
     t.motor(true)?;
     t.set_speed(200.0)?;
@@ -83,7 +85,7 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
     t.move_to(0.0)?;
     let lasers = rig.lasers.len();
     let lit = Pattern::White;
-    let first = shoot(camera, t, &shown, lasers, lit)?;
+    let first = shoot(camera, t, &mut projector, lasers, lit)?;
     let (cols, rows) = (st.board.cols as usize, st.board.rows as usize);
     let corners = |img: &Image8| calib::find_corners(&calib::Gray::from_image(img), cols, rows).ok();
     let seen = corners(&first);
@@ -113,7 +115,7 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
         }
         (Some(c0), Some(axis)) => {
             t.move_to(TURN_DEG)?;
-            let after = shoot(camera, t, &shown, lasers, lit)?;
+            let after = shoot(camera, t, &mut projector, lasers, lit)?;
             t.move_to(0.0)?;
             let object: Vec<rig::Point3> = (0..rows)
                 .flat_map(|j| (0..cols).map(move |i| rig::Point3::new(i as f64 * st.square, j as f64 * st.square, 0.0)))
@@ -147,9 +149,9 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
         }
     }
     // Each laser, then the projector: do they light the scene where the camera sees?
-    let dark = shoot(camera, t, &shown, lasers, Pattern::LaserOff)?;
+    let dark = shoot(camera, t, &mut projector, lasers, Pattern::LaserOff)?;
     for k in 0..lasers {
-        let on = shoot(camera, t, &shown, lasers, Pattern::Laser { index: k })?;
+        let on = shoot(camera, t, &mut projector, lasers, Pattern::Laser { index: k })?;
         let (_, line) = super::live::laser_overlay(&dark, &on, rig.lasers[k].colour);
         let h = on.height as usize;
         say(
@@ -163,9 +165,13 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
     for k in 0..lasers {
         t.laser(k, false)?;
     }
-    if rig.projector.is_some() {
-        let white = shoot(camera, t, &shown, 0, Pattern::White)?.to_gray();
-        let black = shoot(camera, t, &shown, 0, Pattern::Black)?.to_gray();
+    let driven = st.drives_projector(rig);
+    if let (Some(_), Err(why)) = (&rig.projector, &driven) {
+        // A real camera would film whatever the projector's monitor shows: no verdict on its light.
+        say(st, "projector", Some(false), "the station does not drive the projector".into(), why);
+    } else if rig.projector.is_some() {
+        let white = shoot(camera, t, &mut projector, 0, Pattern::White)?.to_gray();
+        let black = shoot(camera, t, &mut projector, 0, Pattern::Black)?.to_gray();
         let lit = white.data.iter().zip(&black.data).filter(|(w, b)| **w as i16 - **b as i16 > 20).count();
         let share = lit as f64 / white.data.len().max(1) as f64;
         say(
@@ -176,6 +182,6 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
             "switch the projector on, show its output on the right monitor, aim and focus it on the platter",
         );
     }
-    *lock(&shown) = None;
+    projector.show(None)?;
     Ok(())
 }

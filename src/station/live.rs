@@ -6,7 +6,7 @@ use super::devices::{CameraChoice, Link};
 use super::{Station, lock};
 use crate::virtual_rig::SimCamera;
 use acquire::Turntable;
-use acquire::camera::{Camera, Shot};
+use acquire::camera::{Camera, PatternOutput, Shot};
 use anyhow::{Result, bail};
 use process::triangulate::laser_line::LineReport;
 use rig::Pattern;
@@ -30,14 +30,18 @@ pub fn set_exposure(st: &Station, b: &serde_json::Value) -> Result<serde_json::V
     }
 }
 
-/// What the projector shows by hand, from `{pattern}`: white, black or off.
-pub fn set_projector(st: &Station, b: &serde_json::Value) -> Result<serde_json::Value, String> {
+/// What the projector shows by hand, from `{pattern}`: white, black or off. The projector's window,
+/// where the station has one, shows it now, unless a job drives the projector (409).
+pub fn set_projector(st: &Station, b: &serde_json::Value) -> Result<serde_json::Value, (u16, String)> {
     let p = match b["pattern"].as_str() {
         Some("white") => Some(Pattern::White),
         Some("black") => Some(Pattern::Black),
         Some("off") => None,
-        _ => return Err(format!("pattern: white, black or off, got {}", b["pattern"])),
+        _ => return Err((400, format!("pattern: white, black or off, got {}", b["pattern"]))),
     };
+    if let Some(w) = &st.window {
+        st.exclusive("projector", || w.show(p).map_err(|e| format!("the projector's window: {e}")))?;
+    }
     *lock(&st.projector) = p;
     st.bus.send("state", st.state_json());
     Ok(json!({ "projector": b["pattern"] }))
@@ -103,12 +107,12 @@ pub fn check_program(rig: &rig::Rig) -> Vec<Pattern> {
 pub fn shoot(
     camera: &mut dyn Camera,
     turntable: &mut dyn Turntable,
-    shown: &Mutex<Option<Pattern>>,
+    projector: &mut dyn PatternOutput,
     lasers: usize,
     pattern: Pattern,
 ) -> Result<Image8> {
     let projected = matches!(pattern, Pattern::White | Pattern::Black | Pattern::Gray { .. } | Pattern::Phase { .. });
-    *lock(shown) = projected.then_some(pattern);
+    projector.show(projected.then_some(pattern))?;
     for k in 0..lasers {
         turntable.laser(k, pattern == Pattern::Laser { index: k })?;
     }
@@ -166,6 +170,7 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
         let what = Shooting { cfg: &cfg, scene, program: &program, seed: st.world.seed };
         let mut camera = live_camera(st, what, &link, &shown)?;
         let camera = camera.as_mut();
+        let mut projector = st.projector_for(&rig, &shown, &program)?;
         let lasers = rig.lasers.len();
         // The raw frame shows what the projector was set to by hand (lit, dark or off); a laser
         // rig's, the work light.
@@ -175,7 +180,7 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
             _ => Pattern::White,
         };
         let t = &mut link.turntable;
-        let raw = shoot(camera, t, &shown, lasers, lit)?;
+        let raw = shoot(camera, t, &mut projector, lasers, lit)?;
         let sat = saturated(&raw);
         let mut note = String::new();
         let picture = match show {
@@ -184,9 +189,9 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
                 if lasers == 0 {
                     bail!("the rig has no lasers");
                 }
-                *lock(&shown) = None;
-                let off = shoot(camera, t, &shown, lasers, Pattern::LaserOff)?;
-                let on = shoot(camera, t, &shown, lasers, Pattern::Laser { index: 0 })?;
+                projector.show(None)?;
+                let off = shoot(camera, t, &mut projector, lasers, Pattern::LaserOff)?;
+                let on = shoot(camera, t, &mut projector, lasers, Pattern::Laser { index: 0 })?;
                 t.laser(0, false)?;
                 let (img, report) = laser_overlay(&off, &on, rig.lasers[0].colour);
                 note = format!("laser 0: {}", laser_legend(&report));
@@ -196,12 +201,12 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
                 let p = rig.projector.as_ref().expect("checked above");
                 let frames: Vec<(Pattern, Image8)> = program
                     .iter()
-                    .map(|&pat| shoot(camera, t, &shown, 0, pat).map(|i| (pat, i)))
+                    .map(|&pat| shoot(camera, t, &mut projector, 0, pat).map(|i| (pat, i)))
                     .collect::<Result<_>>()?;
                 let refs: Vec<(Pattern, &Image8)> = frames.iter().map(|(p, i)| (*p, i)).collect();
                 let (map, report) =
                     process::decode_view(&refs, p.lens.width, p.lens.height, &process::DecodeParams::default())?;
-                *lock(&shown) = None;
+                projector.show(None)?;
                 note = format!(
                     "decoded {} of {} lit pixels; black: shadow (the projector does not reach it) or not lit",
                     report.decoded, report.lit
@@ -226,7 +231,7 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
             }
             other => bail!("show: {other:?} is none of raw, colour, laser, decode, corners"),
         };
-        *lock(&shown) = None;
+        projector.show(None)?;
         Ok(json!({
             "image": web::picture::png_url(&picture),
             "saturated": sat,

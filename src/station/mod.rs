@@ -15,6 +15,7 @@ mod events;
 mod guard;
 mod live;
 mod process_job;
+mod projector;
 mod projects;
 mod scan_job;
 
@@ -93,6 +94,8 @@ pub struct Station {
     pub exposure: Mutex<f64>,
     /// What the operator set the projector to show by hand (`None`: off); the raw live frame shows it.
     pub projector: Mutex<Option<rig::Pattern>>,
+    /// The real projector's window (`--projector-monitor`), where there is one.
+    pub window: Option<projector::Window>,
 }
 
 /// Locks, going on with the data when another thread panicked holding it (every state here stays
@@ -104,10 +107,23 @@ pub fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
 impl Station {
     /// The rig scans use: the rig file when there is one, else the virtual rig's own.
     pub fn rig(&self) -> Result<rig::Rig> {
-        if self.rig_path.is_file() {
-            return rig::Rig::read(&self.rig_path).with_context(|| format!("reading {}", self.rig_path.display()));
-        }
-        Ok(crate::virtual_rig::default_rig(&self.cfg))
+        rig_at(&self.rig_path, &self.cfg)
+    }
+
+    /// The projector for a job showing `program` on `rig` (refused where its frames would be unlit:
+    /// [`projector::for_job`]), the simulator camera seeing `shown`.
+    pub fn projector_for(
+        &self,
+        rig: &rig::Rig,
+        shown: &Arc<Mutex<Option<rig::Pattern>>>,
+        program: &[rig::Pattern],
+    ) -> Result<projector::Shown<'_>> {
+        projector::for_job(self.window.as_ref(), rig, &self.devices.camera(), shown, program)
+    }
+
+    /// Whether the station drives `rig`'s projector for the camera chosen ([`projector::drives`]).
+    pub fn drives_projector(&self, rig: &rig::Rig) -> Result<(), String> {
+        projector::drives(self.window.as_ref(), rig, &self.devices.camera())
     }
 
     /// The simulator's config with the exposure set now: the virtual camera's settings.
@@ -189,6 +205,7 @@ impl Station {
             "board": format!("{}x{}", self.board.cols, self.board.rows),
             "exposure": *lock(&self.exposure),
             "projector": lock(&self.projector).map(|p| p.name()),
+            "projector_window": self.window.as_ref().map(|w| w.describe()),
             "views": self.cfg.scan.views,
             "data": self.data.display().to_string(),
         })
@@ -248,6 +265,14 @@ impl Station {
     }
 }
 
+/// The rig file at `path` when there is one, else the virtual rig's own.
+fn rig_at(path: &std::path::Path, cfg: &SimConfig) -> Result<rig::Rig> {
+    if path.is_file() {
+        return rig::Rig::read(path).with_context(|| format!("reading {}", path.display()));
+    }
+    Ok(crate::virtual_rig::default_rig(cfg))
+}
+
 pub fn run(args: &ServeArgs) -> Result<()> {
     if args.board.charuco.is_some() {
         bail!("--board: the station's wizard calibrates with a chessboard (ChArUco boards: `scanrig calibrate`)");
@@ -301,6 +326,11 @@ pub fn run(args: &ServeArgs) -> Result<()> {
     if let Some(r) = &args.rig {
         rig::Rig::read(r).with_context(|| format!("--rig {}", r.display()))?;
     }
+    // The real projector's window, at the size of the rig's projector now.
+    let window = match args.projector_monitor {
+        Some(m) => Some(projector::Window::open(m, &rig_at(&rig_path, &cfg)?)?),
+        None => None,
+    };
     let server = tiny_http::Server::http((args.bind, args.port))
         .map_err(|e| anyhow::anyhow!("listening on {}:{}: {e}", args.bind, args.port))?;
     let port = server.server_addr().to_ip().map_or(args.port, |a| a.port());
@@ -320,6 +350,7 @@ pub fn run(args: &ServeArgs) -> Result<()> {
         job: Mutex::new(None),
         devices: devices::Devices::default(),
         calibration: Mutex::new(calibration::Wizard::default()),
+        window,
     });
     let host = if loopback { "127.0.0.1".to_string() } else { args.bind.to_string() };
     let query = token.as_ref().map(|t| format!("?token={t}")).unwrap_or_default();
@@ -506,7 +537,10 @@ fn post(st: &Arc<Station>, path: &str, b: &Value) -> ResponseBox {
             Err((s, m)) => error(s, &m),
         },
         "/api/camera" => done(live::set_exposure(st, b)),
-        "/api/projector" => done(live::set_projector(st, b)),
+        "/api/projector" => match live::set_projector(st, b) {
+            Ok(v) => json_response(200, &v),
+            Err((s, m)) => error(s, &m),
+        },
         "/api/fault/unplug" => done(st.devices.unplug().map(|_| json!({ "unplugged": true }))),
         "/api/scan" => match scan_job::request(st, b) {
             Ok((project, views)) => {

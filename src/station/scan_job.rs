@@ -7,7 +7,7 @@ use super::devices::CameraChoice;
 use super::events::now_ms;
 use super::live::{Shooting, live_camera};
 use super::{Station, projects};
-use crate::virtual_rig::{SimProjector, capture_program};
+use crate::virtual_rig::capture_program;
 use acquire::camera::{Camera, PatternOutput};
 use anyhow::{Context, Result, bail};
 use process::pipeline::layout::Layout;
@@ -59,6 +59,9 @@ pub fn run(st: &Arc<Station>, project: &str, views: usize) -> Result<()> {
     acquire::session::clear_stop();
     let mut plan = acquire::Plan::full_turn(method, program.clone(), views);
     plan.seed = Some(st.world.seed);
+    // The projector first: a scan whose frames would be unlit is refused before the rig moves.
+    let shown = Arc::new(Mutex::new(None));
+    let mut projector = st.projector_for(&rig, &shown, &program)?;
     let mut link = st.devices.take()?;
     let virtual_board = link.board.is_some();
     plan.settle = if virtual_board { Duration::ZERO } else { Duration::from_millis(200) };
@@ -69,8 +72,6 @@ pub fn run(st: &Arc<Station>, project: &str, views: usize) -> Result<()> {
     let (object, albedo) =
         crate::sim_cmd::object_on_platter(&st.cfg, st.world.mesh.as_deref(), size, st.world.up, rig::Vector3::zeros())?;
     let scene = sim::Scene::on_turntable(&st.cfg, &object, albedo);
-    let shown = Arc::new(Mutex::new(None));
-    let mut projector = SimProjector(shown.clone());
     let cfg = st.camera_config();
     let mut camera: Box<dyn Camera> = match st.devices.camera() {
         CameraChoice::Folder(d) => {

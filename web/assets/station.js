@@ -133,6 +133,9 @@
     if (!$('scan-views').value) $('scan-views').value = s.views;
     if (document.activeElement !== $('live-exposure')) $('live-exposure').value = s.exposure;
     if (document.activeElement !== $('live-projector')) $('live-projector').value = s.projector ? s.projector : 'off';
+    $('live-projector-where').textContent = s.projector_window
+      ? 'shown in the ' + s.projector_window
+      : 'simulated (a real projector needs scanrig serve --projector-monitor N)';
     if (d.unplugged) $('rig-state').textContent += '; the virtual turntable is unplugged (a scan started now plugs in a new one)';
     showControl();
   }
