@@ -342,7 +342,9 @@ pub struct ConvertArgs {
     /// Write ASCII instead of binary (PLY: instead of little-endian; STL: instead of binary STL).
     #[arg(long)]
     pub ascii: bool,
-    /// Write coordinates as `double` instead of `float` (PLY).
+    /// Write coordinates as `double` instead of `float` (PLY). Without it `float` is written unless
+    /// single precision would round the data by over 10⁻⁵ of their size (an object far from the
+    /// origin, a survey's coordinates), which takes `double` on its own.
     #[arg(long)]
     pub double: bool,
     /// Print what was written as JSON.

@@ -64,28 +64,6 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             Some(read.value).filter(|m| m.face_count() > 0)
         }
     };
-    // Single precision holds up to about 3.4e38: a larger coordinate would be written as infinity,
-    // which no reader (scanrig's included) takes back.
-    let too_large = |points: &mut dyn Iterator<Item = &rig::Point3>| {
-        points.enumerate().find(|(_, p)| p.coords.iter().any(|c| c.abs() > f32::MAX as f64)).map(|(i, p)| (i, *p))
-    };
-    let check = |found: Option<(usize, rig::Point3)>| -> Result<()> {
-        match found {
-            Some((i, p))
-                if opts.precision == Precision::F32
-                    && matches!(MeshFormat::of(&args.output), Some(MeshFormat::Ply)) =>
-            {
-                anyhow::bail!(
-                    "{}: vertex {i} at ({}, {}, {}) is beyond single precision's range; convert with --double",
-                    args.input.display(),
-                    p.x,
-                    p.y,
-                    p.z
-                )
-            }
-            _ => Ok(()),
-        }
-    };
     let warn = |warnings: &[String]| {
         for w in warnings {
             eprintln!("warning: {w}");
@@ -94,7 +72,6 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
     match mesh {
         Some(m) => {
             warn(&warnings);
-            check(too_large(&mut m.vertices.iter()))?;
             rig::write_mesh(&args.output, &m, &opts)?;
             if args.json {
                 let what =
@@ -113,7 +90,6 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             warnings = read.warnings;
             let cloud = read.value;
             warn(&warnings);
-            check(too_large(&mut cloud.positions.iter()))?;
             rig::write_cloud(&args.output, &cloud, &opts).with_context(|| "writing the point cloud")?;
             if args.json {
                 let json = Converted {

@@ -56,6 +56,15 @@ pub fn report(args: &ReportArgs) -> Result<()> {
     Ok(())
 }
 
+/// Whether `path` starts as the pages scanrig writes do (their `generator` meta tag, in the head).
+fn written_by_scanrig(path: &Path) -> bool {
+    use std::io::Read;
+    let mut head = Vec::new();
+    let read = std::fs::File::open(path).and_then(|f| f.take(4096).read_to_end(&mut head));
+    const MARK: &[u8] = b"<meta name=\"generator\" content=\"scanrig";
+    read.is_ok() && head.windows(MARK.len()).any(|w| w == MARK)
+}
+
 /// `mesh.ply` → `mesh.view.html` beside it.
 fn default_page(first: &Path) -> PathBuf {
     let stem = first.file_stem().map_or("view".into(), |s| s.to_string_lossy().into_owned());
@@ -76,7 +85,21 @@ pub fn view(args: &ViewArgs) -> Result<()> {
         server.run(|| false).context("serving the page")?;
         return Ok(());
     }
-    let out = args.out.clone().unwrap_or_else(|| default_page(&args.files[0]));
+    let out = match &args.out {
+        Some(out) => out.clone(),
+        None => {
+            // A name chosen for the user, not by them: what is there is replaced only where an earlier
+            // page of scanrig's is (a user's own `bunny.view.html` was overwritten without a word).
+            let page = default_page(&args.files[0]);
+            if page.exists() && !written_by_scanrig(&page) {
+                anyhow::bail!(
+                    "{}: a file of that name is there and is not a page scanrig wrote; name the page with --out",
+                    page.display()
+                );
+            }
+            page
+        }
+    };
     let bytes = web::view_page::write(&args.files, &out)?;
     crate::progress::note(format!("{:.1} MB: open it in a browser", bytes as f64 / 1e6));
     println!("{}", out.display());

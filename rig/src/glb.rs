@@ -5,7 +5,9 @@
 //! glTF's units are metres and its up axis +y; scanrig's object frame is millimetres with the turntable
 //! axis +z. The data stay in millimetres and +z (exact, what other scanrig commands read back) and the
 //! node carries the change: a scale of 1/1000 and −90° about x. Reading applies every node's transform
-//! and undoes that convention, so any glTF file comes in as millimetres, +z up.
+//! and undoes that convention, so any glTF file comes in as millimetres, +z up. Data in another unit
+//! (a PLY's `comment units m`) are brought to millimetres first, and data that single precision
+//! would not hold are refused ([`crate::mesh_io::write_mesh`], [`crate::precision`]).
 
 use crate::error::{Error, Location, ParseError, Problem};
 use crate::math::{Matrix3, Point3, Vector3};

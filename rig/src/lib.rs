@@ -84,6 +84,7 @@ pub use mesh::{FaceSizes, PolyMesh, TriMesh};
 
 /// Polygons other tools can read: ear clipping, convexity.
 pub mod polygon;
+pub mod precision;
 
 /// Separable convolution with clamped edges (the Gaussian blurs).
 pub mod convolve;

@@ -125,13 +125,27 @@ pub fn read_cloud_reported(path: &Path) -> Result<Reported<PointCloud>, Error> {
 }
 
 /// Writes a polygon mesh as PLY (with `opts`), OBJ, STL (binary, or ASCII when `opts` ask for it) or GLB,
-/// atomically.
+/// atomically. STL and GLB take the data in millimetres, from the unit `opts` give them, and are
+/// refused where single precision would not hold them ([`crate::precision`]).
 pub fn write_mesh(path: &Path, mesh: &PolyMesh, opts: &WriteOptions) -> Result<(), Error> {
+    let in_mm = |format: &str| -> Result<std::borrow::Cow<'_, PolyMesh>, Error> {
+        let k = millimetres_per_unit(path, opts, format)?;
+        let mesh = if k == 1.0 {
+            std::borrow::Cow::Borrowed(mesh)
+        } else {
+            std::borrow::Cow::Owned(PolyMesh {
+                vertices: mesh.vertices.iter().map(|p| p * k).collect(),
+                ..mesh.clone()
+            })
+        };
+        single_precision(path, &mesh.vertices, format)?;
+        Ok(mesh)
+    };
     match format_of(path, ".ply, .obj, .stl or .glb")? {
         MeshFormat::Ply => ply::write_mesh(path, mesh, opts),
         MeshFormat::Obj => obj::write_mesh(path, mesh),
-        MeshFormat::Stl => stl::write_mesh(path, mesh, opts.encoding == Encoding::Ascii),
-        MeshFormat::Glb => glb::write_mesh(path, mesh),
+        MeshFormat::Stl => stl::write_mesh(path, &*in_mm("STL")?, opts.encoding == Encoding::Ascii),
+        MeshFormat::Glb => glb::write_mesh(path, &*in_mm("glTF")?),
         MeshFormat::Off | MeshFormat::E57 => Err(Error::UnknownFileType {
             path: path.to_path_buf(),
             expected: ".ply, .obj, .stl or .glb for a mesh (OFF is read-only, E57 holds clouds)",
@@ -141,14 +155,46 @@ pub fn write_mesh(path: &Path, mesh: &PolyMesh, opts: &WriteOptions) -> Result<(
 
 /// Writes a point cloud as PLY (with `opts`), OBJ, GLB or E57, atomically.
 pub fn write_cloud(path: &Path, cloud: &PointCloud, opts: &WriteOptions) -> Result<(), Error> {
+    let in_mm = |format: &str| -> Result<std::borrow::Cow<'_, PointCloud>, Error> {
+        let k = millimetres_per_unit(path, opts, format)?;
+        Ok(if k == 1.0 {
+            std::borrow::Cow::Borrowed(cloud)
+        } else {
+            let positions = cloud.positions.iter().map(|p| p * k).collect();
+            std::borrow::Cow::Owned(PointCloud { positions, ..cloud.clone() })
+        })
+    };
     match format_of(path, ".ply, .obj, .glb or .e57")? {
         MeshFormat::Ply => ply::write_cloud(path, cloud, opts),
         MeshFormat::Obj => obj::write_cloud(path, cloud),
-        MeshFormat::Glb => glb::write_cloud(path, cloud),
-        MeshFormat::E57 => e57::write_cloud(path, cloud),
+        MeshFormat::Glb => {
+            let cloud = in_mm("glTF")?;
+            single_precision(path, &cloud.positions, "glTF")?;
+            glb::write_cloud(path, &cloud)
+        }
+        MeshFormat::E57 => e57::write_cloud(path, &*in_mm("E57")?),
         MeshFormat::Off | MeshFormat::Stl => Err(Error::UnknownFileType {
             path: path.to_path_buf(),
             expected: ".ply, .obj, .glb or .e57 for a point cloud (OFF is read-only, STL holds triangles)",
         }),
     }
+}
+
+/// Millimetres in the data's unit (`opts`' `comment units …`; none: millimetres), for a format
+/// written in a unit of its own (E57 and glTF: metres, STL: millimetres), or why not.
+fn millimetres_per_unit(path: &Path, opts: &WriteOptions, format: &str) -> Result<f64, Error> {
+    let Some(unit) = opts.units() else { return Ok(1.0) };
+    crate::precision::millimetres_per(unit).ok_or_else(|| Error::Refused {
+        path: path.to_path_buf(),
+        why: format!(
+            "the data's unit is {unit:?} (the input's `comment units`), which scanrig cannot convert to {format}'s \
+             (it knows mm, cm, m, µm and inches): write .ply or .obj, which keep the data's own numbers"
+        ),
+    })
+}
+
+/// Refuses `points` for a single-precision `format` where it would not hold them.
+fn single_precision(path: &Path, points: &[crate::Point3], format: &str) -> Result<(), Error> {
+    let r = crate::precision::Rounding::of(points);
+    if r.holds() { Ok(()) } else { Err(Error::Refused { path: path.to_path_buf(), why: r.why_not(format) }) }
 }

@@ -250,3 +250,91 @@ fn ctrl_c_stops_a_scan_between_views_and_says_how_to_resume() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(rig::Manifest::read(&out).unwrap().views.iter().all(|v| v.complete));
 }
+
+/// A sphere of radius 30 mm about `centre`, in `unit` (mm per unit: `scale`), with outward normals.
+fn sphere_file(path: &Path, centre: rig::Vector3, scale: f64, opts: &rig::ply::WriteOptions) {
+    let n = 6000;
+    let (positions, normals): (Vec<rig::Point3>, Vec<rig::Vector3>) = (0..n)
+        .map(|i| {
+            // A Fibonacci sphere: even cover, no randomness.
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let t = i as f64 * 2.399_963_229_728_653;
+            let u = rig::Vector3::new((1.0 - z * z).sqrt() * t.cos(), (1.0 - z * z).sqrt() * t.sin(), z);
+            (rig::Point3::from((centre + u * 30.0) / scale), u)
+        })
+        .unzip();
+    let cloud = rig::PointCloud { normals: Some(normals), ..rig::PointCloud::from_positions(positions) };
+    rig::ply::write_cloud(path, &cloud, opts).unwrap();
+}
+
+/// Found by a hostile user's probe (2026-12-07): a cloud in metres (Stanford's scans are) went out to
+/// E57 and glTF 1000 times too small, both being written as if the data were millimetres; and an
+/// object far from the origin, read in double precision, was written in single precision, where a
+/// 60 mm sphere 10⁹ mm out became two points (`reconstruct`'s mesh) with exit 0 and no warning.
+#[test]
+fn metres_and_far_coordinates_come_out_where_they_were() {
+    let d = tempfile::tempdir().unwrap();
+    let p = |n: &str| d.path().join(n);
+    let ok = |o: &std::process::Output| assert!(o.status.success(), "{}", stderr(o));
+    // Metres: E57 and glTF read back (in millimetres) as the sphere is, 30 mm about (0, 0, 40).
+    sphere_file(
+        &p("m.ply"),
+        rig::Vector3::new(0.0, 0.0, 40.0),
+        1000.0,
+        &rig::ply::WriteOptions::default().with_units("m"),
+    );
+    let radius = |pts: &[rig::Point3]| {
+        let r: Vec<f64> = pts.iter().map(|q| (q - rig::Point3::new(0.0, 0.0, 40.0)).norm()).collect();
+        (r.iter().cloned().fold(f64::INFINITY, f64::min), r.iter().cloned().fold(0.0, f64::max))
+    };
+    for out in ["m.e57", "m.glb"] {
+        ok(&scanrig(&[&"convert", &p("m.ply"), &p(out)]));
+        let (lo, hi) = radius(&rig::read_cloud(&p(out)).unwrap().positions);
+        assert!(lo > 29.99 && hi < 30.01, "{out}: radius {lo}–{hi} mm");
+    }
+    ok(&scanrig(&[&"reconstruct", &p("m.ply"), &"-o", &p("m.stl"), &"--base", &"closed", &"-q"]));
+    let (lo, hi) = radius(&rig::read_mesh(&p("m.stl")).unwrap().vertices);
+    assert!(lo > 29.0 && hi < 31.0, "STL: radius {lo}–{hi} mm");
+    // A unit scanrig cannot convert: refused for E57, named; PLY keeps the file's own numbers.
+    sphere_file(&p("f.ply"), rig::Vector3::zeros(), 1.0, &rig::ply::WriteOptions::default().with_units("furlong"));
+    let o = scanrig(&[&"convert", &p("f.ply"), &p("f.e57")]);
+    assert!(!o.status.success() && stderr(&o).contains("\"furlong\""), "{}", stderr(&o));
+    assert!(!p("f.e57").exists());
+    // 10⁹ mm out, read in double: PLY takes double on its own, and the mesh keeps its shape.
+    let far = rig::Vector3::new(1e9, 1e9, 1e9);
+    let double = rig::ply::WriteOptions { precision: rig::ply::Precision::F64, ..Default::default() };
+    sphere_file(&p("far.ply"), far, 1.0, &double);
+    ok(&scanrig(&[&"convert", &p("far.ply"), &p("far2.ply")]));
+    assert_eq!(rig::read_cloud(&p("far2.ply")).unwrap().positions, rig::read_cloud(&p("far.ply")).unwrap().positions);
+    ok(&scanrig(&[&"reconstruct", &p("far.ply"), &"-o", &p("far_mesh.ply"), &"--base", &"closed", &"-q"]));
+    let mesh = rig::read_mesh(&p("far_mesh.ply")).unwrap();
+    let r: Vec<f64> = mesh.vertices.iter().map(|q| (q - rig::Point3::from(far)).norm()).collect();
+    assert!(r.iter().all(|r| (r - 30.0).abs() < 1.0), "far mesh radius {:?}", r.iter().take(5).collect::<Vec<_>>());
+    // glTF and STL hold single precision only: refused, saying why, nothing written.
+    for out in ["far.glb", "far.stl"] {
+        let o = scanrig(&[&"convert", &p("far_mesh.ply"), &p(out)]);
+        assert!(!o.status.success() && stderr(&o).contains("single precision only"), "{out}: {}", stderr(&o));
+        assert!(!p(out).exists());
+    }
+}
+
+/// Found by a hostile user's probe (2026-12-07): `view m.ply` writes `m.view.html` beside it by
+/// default, and replaced a user's own file of that name without a word. The default name now
+/// replaces only a page scanrig wrote; a name given with --out is the user's choice.
+#[test]
+fn view_keeps_a_users_file_of_its_default_name() {
+    let d = tempfile::tempdir().unwrap();
+    let p = |n: &str| d.path().join(n);
+    sphere_file(&p("m.ply"), rig::Vector3::zeros(), 1.0, &rig::ply::WriteOptions::default());
+    std::fs::write(p("m.view.html"), "my notes on the scan").unwrap();
+    let o = scanrig(&[&"view", &p("m.ply")]);
+    assert!(!o.status.success() && stderr(&o).contains("--out"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(p("m.view.html")).unwrap(), "my notes on the scan");
+    std::fs::remove_file(p("m.view.html")).unwrap();
+    for _ in 0..2 {
+        // Written, then its own page replaced.
+        let o = scanrig(&[&"view", &p("m.ply")]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert!(std::fs::read_to_string(p("m.view.html")).unwrap().contains("scanrig"));
+}

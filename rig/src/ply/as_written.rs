@@ -31,7 +31,7 @@ fn binary(opts: &WriteOptions) -> bool {
 
 /// [`cloud_from_ply`](super::cloud_from_ply) of [`cloud_to_bytes`](super::cloud_to_bytes).
 pub fn cloud_as_written(cloud: &PointCloud, opts: &WriteOptions) -> Option<PointCloud> {
-    let precision = opts.precision;
+    let precision = opts.holding(&cloud.positions).precision;
     // The reader refuses a position the file holds as infinite or NaN: only its error says so.
     let positions: Vec<Point3> = cloud.positions.iter().map(|p| point(p, precision)).collect();
     if !binary(opts) || !positions.iter().all(|p| p.iter().all(|c| c.is_finite())) {
@@ -51,7 +51,7 @@ pub fn cloud_as_written(cloud: &PointCloud, opts: &WriteOptions) -> Option<Point
 /// [`range_grid_to_bytes`](super::range_grid_to_bytes): valid cells as stored, the rest empty as the
 /// reader leaves them, and the sensor as its header comment reads back.
 pub fn range_grid_as_written(grid: &RangeGrid, opts: &WriteOptions) -> Option<RangeGrid> {
-    let precision = opts.precision;
+    let precision = opts.holding(super::write::valid_points(grid)).precision;
     if !binary(opts) || grid.width.checked_mul(grid.height) != Some(grid.valid.len()) {
         return None;
     }
@@ -211,9 +211,12 @@ mod tests {
     #[test]
     fn what_only_a_parse_can_tell_is_left_to_it() {
         let cloud = PointCloud::from_positions(vec![Point3::new(1e300, 0.0, 0.0)]);
-        // 1e300 is infinite as a float: the reader refuses it, and so must the pipeline.
-        assert!(cloud_as_written(&cloud, &WriteOptions::default()).is_none());
-        assert!(cloud_as_written(&cloud, &WriteOptions { precision: Precision::F64, ..Default::default() }).is_some());
+        // 1e300 is infinite as a float: the writer takes double for it (as for any coordinate single
+        // precision would not hold), and the value comes back as it was.
+        let written = cloud_as_written(&cloud, &WriteOptions::default()).unwrap();
+        assert_eq!(written.positions[0].x, 1e300);
+        let parsed = cloud_from_ply(&parse(&cloud_to_bytes(&cloud, &WriteOptions::default())).unwrap()).unwrap();
+        assert_eq!(parsed.positions, written.positions);
         assert!(cloud_as_written(&PointCloud::default(), &WriteOptions::ascii()).is_none());
     }
 }

@@ -46,6 +46,22 @@ impl WriteOptions {
         self.comments.push(format!("units {unit}"));
         self
     }
+
+    /// The unit a `comment units …` line gives the data, where one does.
+    pub fn units(&self) -> Option<&str> {
+        self.comments.iter().find_map(|c| c.strip_prefix("units ")).map(str::trim)
+    }
+
+    /// These options for writing `points`: `float` coordinates become `double` where single
+    /// precision would not hold them ([`crate::precision::Rounding::holds`]: an object far from the
+    /// origin), whatever was asked.
+    pub fn holding<'a>(&self, points: impl IntoIterator<Item = &'a Point3>) -> WriteOptions {
+        let mut opts = self.clone();
+        if opts.precision == Precision::F32 && !crate::precision::Rounding::of(points).holds() {
+            opts.precision = Precision::F64;
+        }
+        opts
+    }
 }
 
 struct Body {
@@ -152,6 +168,7 @@ fn write_point(body: &mut Body, t: ScalarType, p: &Point3, n: Option<&Vector3>) 
 /// A point cloud as PLY bytes: `x y z`, then `nx ny nz`, `red green blue` (uchar), `confidence` (float)
 /// and `view_id` (uint) where present.
 pub fn cloud_to_bytes(cloud: &PointCloud, opts: &WriteOptions) -> Vec<u8> {
+    let opts = &opts.holding(&cloud.positions);
     let t = real(opts);
     let mut props = vertex_props(opts, cloud.normals.is_some());
     if cloud.colors.is_some() {
@@ -206,6 +223,7 @@ const CHUNK_POINTS: usize = 1 << 16;
 /// even when binary is asked for, and the header says so: binary readers that size every list by the
 /// first (trimesh: "PLY is unexpected length!") cannot read them otherwise.
 pub fn mesh_to_bytes(mesh: &PolyMesh, opts: &WriteOptions) -> Vec<u8> {
+    let opts = &opts.holding(&mesh.vertices);
     let t = real(opts);
     let largest = mesh.faces().map(|f| f.len()).max().unwrap_or(0);
     let smallest = mesh.faces().map(|f| f.len()).min().unwrap_or(0);
@@ -258,6 +276,7 @@ pub fn write_mesh(path: &Path, mesh: &PolyMesh, opts: &WriteOptions) -> Result<(
 /// `range_grid` element too. (Written as Stanford's layout, a list of 0 or 1 index per cell, the file
 /// was one that binary readers which size every list by the first, trimesh among them, refuse.)
 pub fn range_grid_to_bytes(grid: &RangeGrid, opts: &WriteOptions) -> Vec<u8> {
+    let opts = &opts.holding(valid_points(grid));
     let t = real(opts);
     let mut props = vertex_props(opts, grid.normals.is_some());
     if grid.colors.is_some() {
@@ -282,6 +301,11 @@ pub fn range_grid_to_bytes(grid: &RangeGrid, opts: &WriteOptions) -> Vec<u8> {
         body.end_entry();
     }
     body.out
+}
+
+/// A range grid's valid points (the rest hold nothing written).
+pub(super) fn valid_points(grid: &RangeGrid) -> impl Iterator<Item = &Point3> {
+    grid.points.iter().zip(&grid.valid).filter(|(_, v)| **v).map(|(p, _)| p)
 }
 
 /// The options with the sensor as a `comment sensor …` line (a per-cell sensor is not written).
@@ -309,6 +333,7 @@ fn with_size(mut head: Vec<u8>, width: usize, height: usize) -> Vec<u8> {
 /// `obj_info num_cols/num_rows` and the sensor as a `comment sensor …` line, which
 /// [`sparse_view_from_ply`](super::sparse_view_from_ply) reads back.
 pub fn sparse_view_to_bytes(view: &SparseView, opts: &WriteOptions) -> Vec<u8> {
+    let opts = &opts.holding(&view.points);
     let t = real(opts);
     let mut props = vertex_props(opts, false);
     if view.colors.is_some() {
