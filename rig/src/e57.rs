@@ -2,21 +2,32 @@
 //! the `e57` crate (see the README's list of crates).
 //!
 //! E57's coordinates are metres; scanrig's are millimetres: writing divides by 1000 and reading
-//! multiplies back. Colours are stored as 8-bit integers. Every point cloud of a file is read, placed by
-//! its pose, into one cloud; points without valid Cartesian coordinates (a scanner's "no return") are
-//! left out. Normals, confidence and view ids have no standard E57 field and are not written.
+//! multiplies back (data in another unit, a PLY's `comment units m`, are brought to millimetres
+//! first by [`crate::mesh_io::write_cloud`]). Colours are stored as 8-bit integers. Every point
+//! cloud of a file is read, placed by its pose, into one cloud; points without valid Cartesian
+//! coordinates (a scanner's "no return") are left out. Normals are written and read as the
+//! surface-normals extension libE57Format and CloudCompare use (`nor:normalX` …, [`NORMALS_URL`]);
+//! confidence and view ids have no E57 field and are not written.
 
 use crate::error::{Error, Location, ParseError, Problem};
 use crate::math::Point3;
 use crate::point_cloud::PointCloud;
 use crate::run_files::{read_bytes, write_atomic};
-use e57::{CartesianCoordinate, E57Reader, E57Writer, Record, RecordValue};
+use e57::{CartesianCoordinate, E57Reader, E57Writer, Extension, Record, RecordDataType, RecordName, RecordValue};
 use std::io::Cursor;
 use std::path::Path;
 
 /// A fixed GUID per written cloud is allowed (GUIDs identify data sets, they need not be random) and
 /// keeps the bytes reproducible; the file's own is derived from the cloud's size.
 const GUID_PREFIX: &str = "scanrig-e57";
+
+/// The surface-normals extension's namespace and its definition's address (E57_EXT_surface_normals).
+pub const NORMALS_URL: (&str, &str) = ("nor", "http://www.libe57.org/E57_EXT_surface_normals.txt");
+
+/// The extension's field for one component of a normal (`X`, `Y` or `Z`).
+fn normal_name(axis: &str) -> RecordName {
+    RecordName::Unknown { namespace: NORMALS_URL.0.into(), name: format!("normal{axis}") }
+}
 
 /// A point cloud as E57 bytes.
 pub fn cloud_to_bytes(cloud: &PointCloud) -> Result<Vec<u8>, String> {
@@ -28,12 +39,23 @@ pub fn cloud_to_bytes(cloud: &PointCloud) -> Result<Vec<u8>, String> {
         if cloud.colors.is_some() {
             proto.extend([Record::COLOR_RED_U8, Record::COLOR_GREEN_U8, Record::COLOR_BLUE_U8]);
         }
+        if cloud.normals.is_some() {
+            w.register_extension(Extension::new(NORMALS_URL.0, NORMALS_URL.1)).map_err(err)?;
+            let unit = RecordDataType::Single { min: Some(-1.0), max: Some(1.0) };
+            proto.extend(["X", "Y", "Z"].map(|a| Record { name: normal_name(a), data_type: unit.clone() }));
+        }
         let mut pc = w.add_pointcloud(&format!("{GUID_PREFIX}-cloud"), proto).map_err(err)?;
         pc.set_name(Some("scanrig point cloud".into()));
         for (i, p) in cloud.positions.iter().enumerate() {
             let mut values: Vec<RecordValue> = p.coords.iter().map(|&c| RecordValue::Double(c / 1000.0)).collect();
             if let Some(c) = &cloud.colors {
                 values.extend(c[i].map(|v| RecordValue::Integer(v as i64)));
+            }
+            if let Some(n) = &cloud.normals {
+                // Within the field's [-1, 1]; a normal that is none (zero, or not finite) is written as zero.
+                let unit = n[i].try_normalize(1e-12).filter(|u| u.iter().all(|c| c.is_finite()));
+                let u = unit.unwrap_or_else(crate::math::Vector3::zeros);
+                values.extend(u.iter().map(|&c| RecordValue::Single((c as f32).clamp(-1.0, 1.0))));
             }
             pc.add_point(values).map_err(err)?;
         }
@@ -99,15 +121,32 @@ pub fn parse_reported(bytes: &[u8]) -> Result<(PointCloud, Vec<String>), ParseEr
     if coloured > 0 && !all_coloured {
         warnings.push(format!("its colours are not kept: {coloured} of {} point clouds have them", clouds.len()));
     }
+    // Normals where every point cloud has the extension's three fields (their places in its records).
+    let normal_fields = |pc: &e57::PointCloud| -> Option<[usize; 3]> {
+        let at = |a: &str| {
+            let name = format!("normal{a}");
+            pc.prototype.iter().position(|r| matches!(&r.name, RecordName::Unknown { name: n, .. } if *n == name))
+        };
+        Some([at("X")?, at("Y")?, at("Z")?])
+    };
+    let with_normals = clouds.iter().filter(|c| normal_fields(c).is_some()).count();
+    let all_normals = !clouds.is_empty() && with_normals == clouds.len();
+    if with_normals > 0 && !all_normals {
+        warnings.push(format!("its normals are not kept: {with_normals} of {} point clouds have them", clouds.len()));
+    }
     let mut out = PointCloud::default();
     let mut colors = Vec::new();
+    let mut normals = Vec::new();
     let mut no_return = 0usize;
     for (k, pc) in clouds.iter().enumerate() {
         let pc = checked_pose(pc, k)?;
         let mut points = reader.pointcloud_simple(&pc).map_err(|e| invalid(&format!("point cloud {k}"), e))?;
         points.apply_pose(true);
+        // Which points came in (the normals, read after, are those of the same points).
+        let mut kept = Vec::new();
         for p in points {
             let p = p.map_err(|e| invalid(&format!("point cloud {k}"), e))?;
+            kept.push(matches!(p.cartesian, CartesianCoordinate::Valid { .. }));
             let CartesianCoordinate::Valid { x, y, z } = p.cartesian else {
                 no_return += 1;
                 continue;
@@ -123,6 +162,12 @@ pub fn parse_reported(bytes: &[u8]) -> Result<(PointCloud, Vec<String>), ParseEr
                 colors.push(c.map(|v| (v * 255.0).round().clamp(0.0, 255.0) as u8));
             }
         }
+        if all_normals {
+            normals.extend(cloud_normals(&mut reader, &pc, k, &kept, normal_fields(&pc).expect("checked"))?);
+        }
+    }
+    if all_normals {
+        out.normals = Some(normals);
     }
     if all_coloured {
         out.colors = Some(colors);
@@ -131,6 +176,40 @@ pub fn parse_reported(bytes: &[u8]) -> Result<(PointCloud, Vec<String>), ParseEr
         warnings.push(format!("{no_return} points without valid coordinates (no return) are left out"));
     }
     Ok((out, warnings))
+}
+
+/// The normals of point cloud `k` (at `fields` of its records) for the points `kept`, turned by its
+/// pose as the points are.
+fn cloud_normals(
+    reader: &mut E57Reader<Cursor<&[u8]>>,
+    pc: &e57::PointCloud,
+    k: usize,
+    kept: &[bool],
+    fields: [usize; 3],
+) -> Result<Vec<crate::math::Vector3>, ParseError> {
+    let at = || Location::Field(format!("data3D[{k}] normals"));
+    let bad = |e: e57::Error| ParseError::new(at(), Problem::Invalid(e.to_string()));
+    let turn = pc.transform.as_ref().map_or(crate::math::UnitQuaternion::identity(), |t| {
+        let q = &t.rotation;
+        crate::math::UnitQuaternion::new_normalize(nalgebra::Quaternion::new(q.w, q.x, q.y, q.z))
+    });
+    let mut out = Vec::new();
+    for (values, &keep) in reader.pointcloud_raw(pc).map_err(bad)?.zip(kept) {
+        let values = values.map_err(bad)?;
+        if !keep {
+            continue;
+        }
+        let c = |f: usize| values[f].to_f64(&pc.prototype[f].data_type).map_err(bad);
+        let n = crate::math::Vector3::new(c(fields[0])?, c(fields[1])?, c(fields[2])?);
+        if !n.iter().all(|v| v.is_finite()) {
+            return Err(ParseError::new(at(), Problem::NonFinite("a normal".into())));
+        }
+        out.push(turn * n);
+    }
+    if out.len() != kept.iter().filter(|&&k| k).count() {
+        return Err(ParseError::new(at(), Problem::Invalid("fewer normals than points".into())));
+    }
+    Ok(out)
 }
 
 /// Reads an E57 file (see [`parse`]).
@@ -159,7 +238,27 @@ mod tests {
             assert!((a - b).norm() < 1e-9, "{a} vs {b}");
         }
         let bare = parse(&cloud_to_bytes(&PointCloud::from_positions(vec![Point3::origin()])).unwrap()).unwrap();
-        assert_eq!((bare.len(), bare.colors), (1, None));
+        assert_eq!((bare.len(), bare.colors, bare.normals), (1, None, None));
+    }
+
+    /// Normals go out as the surface-normals extension and come back (they had been dropped without
+    /// a word, found by a hostile user's probe on 2026-12-07), in single precision.
+    #[test]
+    fn normals_round_trip_as_the_extension() {
+        let positions: Vec<Point3> = (0..300).map(|i| Point3::new(i as f64, 2.0 * i as f64, 5.0)).collect();
+        let normals: Vec<crate::math::Vector3> = (0..300)
+            .map(|i| crate::math::Vector3::new((i as f64 * 0.1).cos(), (i as f64 * 0.1).sin(), 0.5).normalize())
+            .collect();
+        let cloud = PointCloud { normals: Some(normals.clone()), ..PointCloud::from_positions(positions) };
+        let bytes = cloud_to_bytes(&cloud).unwrap();
+        assert!(bytes.windows(NORMALS_URL.1.len()).any(|w| w == NORMALS_URL.1.as_bytes()), "the extension is named");
+        let (back, warnings) = parse_reported(&bytes).unwrap();
+        assert!(warnings.is_empty(), "{warnings:?}");
+        let back = back.normals.expect("normals read back");
+        assert_eq!(back.len(), 300);
+        for (a, b) in back.iter().zip(&normals) {
+            assert!((a - b).norm() < 1e-6, "{a} vs {b}");
+        }
     }
 
     fn posed(rotation: e57::Quaternion) -> Vec<u8> {

@@ -18,15 +18,21 @@ def describe_e57(path):
         import pye57
 
         e57 = pye57.E57(path)
-        counts, extents, colored = 0, [0.0, 0.0, 0.0], False
+        counts, extents, colored, normals = 0, [0.0, 0.0, 0.0], False, False
         for k in range(e57.scan_count):
-            data = e57.read_scan_raw(k)
+            # Normals are the surface-normals extension (nor:normalX ...), which libE57Format reads and
+            # pye57 hands back only as fields it names unsupported: it reads the rest when told to.
+            header = e57.get_header(k)
+            names = [header.point_fields[i] for i in range(len(header.point_fields))]
+            normals = normals or "nor:normalX" in names
+            data = e57.read_scan_raw(k, ignore_unsupported_fields=True)
             xyz = np.stack([data["cartesianX"], data["cartesianY"], data["cartesianZ"]], axis=1)
             counts += len(xyz)
             if len(xyz):
                 extents = [max(a, float(b)) for a, b in zip(extents, np.ptp(xyz, axis=0))]
             colored = colored or "colorRed" in data
-        return {"type": "E57", "vertices": counts, "finite": True, "extent": extents, "colored": colored}
+        return {"type": "E57", "vertices": counts, "finite": True, "extent": extents, "colored": colored,
+                "normals": normals}
     except Exception as e:
         return {"error": f"{type(e).__name__}: {e}"}
 
