@@ -360,9 +360,10 @@ pub struct RegisterOpts {
     #[arg(long, default_value_t = Tolerance::default().shift_mm, allow_hyphen_values = true)]
     pub max_correction_mm: f64,
     /// Go on past results that cannot be right (frames that contradict themselves when decoding, a
-    /// refused registration correction, a mesh its cloud does not support — far from it, inside out,
-    /// facing against its normals, leaving samples out, coarsened by points apart from the object —,
-    /// a quad remesh that joins a thin part's sides), with a warning.
+    /// refused registration correction, a view that fits the others far worse than they fit each
+    /// other, a mesh its cloud does not support — far from it, inside out, facing against its
+    /// normals, leaving samples out, coarsened by points apart from the object —, a quad remesh that
+    /// joins a thin part's sides), with a warning.
     #[arg(long)]
     pub force: bool,
 }

@@ -264,8 +264,8 @@ mod tests {
         assert_eq!(o.problems, vec![SequenceProblem::Duplicate { number: 1, files: paths(&["a_1.jpg", "a_1.png"]) }]);
     }
 
-    /// Frames listed in a scan folder's manifest: a file listed twice, or two files for one pattern, is
-    /// refused by name (one of them would be decoded as a frame it is not).
+    /// Frames listed in a scan folder's manifest: a file listed twice, by one view or two, or two files
+    /// for one pattern, is refused by name (one of them would be decoded as a frame it is not).
     #[test]
     fn a_manifest_listing_a_frame_twice_is_refused() {
         let patterns = [crate::Pattern::White, crate::Pattern::Black];
@@ -279,6 +279,14 @@ mod tests {
         again.views[0].frames[1].pattern = crate::Pattern::White;
         let e = crate::Manifest::from_json(&serde_json::to_vec(&again).unwrap()).unwrap_err().to_string();
         assert!(e.contains("both show white"), "{e}");
+        // A view listed twice (a hostile user's probe, 2026-12-07: registration failed with "the
+        // target has no points"): its files are another view's.
+        let two = crate::Manifest::fresh(crate::Method::StructuredLight, "test", None, &[0.0, 30.0], &patterns);
+        let mut copied = two.clone();
+        copied.views[1].frames = copied.views[0].frames.clone();
+        let e = crate::Manifest::from_json(&serde_json::to_vec(&copied).unwrap()).unwrap_err().to_string();
+        assert!(e.contains("views[1].frames") && e.contains("is view 0's too"), "{e}");
+        assert!(crate::Manifest::from_json(&serde_json::to_vec(&two).unwrap()).is_ok());
     }
 
     #[test]

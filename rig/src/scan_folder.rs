@@ -244,6 +244,7 @@ impl Manifest {
             }
             last = v.pass;
         }
+        let mut owner: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
         for (i, v) in m.views.iter().enumerate() {
             let max = crate::limits::MAX_ABS_ANGLE_DEG;
             if !(v.angle_deg.is_finite() && v.angle_deg.abs() <= max) {
@@ -256,6 +257,15 @@ impl Manifest {
                     let msg = format!("frame file `{}` must be a relative path inside the scan folder", f.file);
                     return Err(ParseError::new(Location::Field(format!("views[{i}].frames")), Problem::Invalid(msg)));
                 }
+            }
+            // A file another view lists (a view copied in twice): its frames would be registered at
+            // two angles, and the error came from deep in registration ("the target has no points").
+            for f in &v.frames {
+                if let Some(j) = owner.get(f.file.as_str()).filter(|&&j| j != i) {
+                    let msg = format!("frame file `{}` is view {j}'s too: a view listed twice?", f.file);
+                    return Err(ParseError::new(Location::Field(format!("views[{i}].frames")), Problem::Invalid(msg)));
+                }
+                owner.insert(&f.file, i);
             }
             // A file listed twice, or two files for one pattern: one of them would be decoded as a frame it
             // is not (or ignored).

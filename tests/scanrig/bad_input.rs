@@ -472,3 +472,39 @@ fn process_refuses_an_implausible_remesh_also_when_it_reuses_one() {
     let o = scanrig(&[&"process", &scan, &"-q"]);
     assert!(refused(&o), "reused without the check: {}", stderr(&o));
 }
+
+/// Found by a hostile user's probe (2026-12-07): a view captured where the turntable had not turned
+/// (its images those of the view before, 30° off) was registered into a false match 4.6° away, under
+/// the tolerance, and merged: the registered cloud 4.5 mm off the truth at its 99th percentile, exit
+/// 0, no warning, and `process` later failed at reconstruction blaming the depth. The view now fits
+/// the others far worse than they fit each other, and registration is refused naming it, unless
+/// forced; the same scan untouched passes.
+#[test]
+fn a_view_the_turntable_did_not_turn_for_is_refused_unless_forced() {
+    let d = tempfile::tempdir().unwrap();
+    let scan = d.path().join("scan");
+    let o = scanrig(&[&"sim", &"--views", &"12", &"--resolution", &"320x240", &"--no-truth", &"--out", &scan]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Untouched: registered without a word. Copied after, the other views' outputs are reused.
+    let o = scanrig(&[&"process", &scan, &"--until", &"register", &"-q"]);
+    assert!(o.status.success() && !stderr(&o).contains("fits the other views"), "{}", stderr(&o));
+    let stalled = d.path().join("stalled");
+    crate::shared_demo::copy_tree(&scan, &stalled);
+    // View 7's frames are view 6's images: the platter did not turn between them.
+    let m = rig::Manifest::read(&scan).unwrap();
+    for (from, to) in m.views[6].frames.iter().zip(&m.views[7].frames) {
+        assert_eq!(from.pattern, to.pattern);
+        std::fs::copy(scan.join(&from.file), stalled.join(&to.file)).unwrap();
+    }
+    let o = scanrig(&[&"process", &stalled, &"--until", &"register", &"-q"]);
+    let err = stderr(&o);
+    assert!(
+        !o.status.success() && err.contains("view 7 fits the other views far worse") && err.contains("--force"),
+        "{err}"
+    );
+    // The refused registration wrote nothing: the clean scan's copied output is as it was.
+    let registered = |dir: &std::path::Path| std::fs::read(dir.join("processed/registered.ply")).unwrap();
+    assert!(registered(&stalled) == registered(&scan));
+    let o = scanrig(&[&"process", &stalled, &"--until", &"register", &"-q", &"--force"]);
+    assert!(o.status.success() && stderr(&o).contains("warning: view 7 fits the other views"), "{}", stderr(&o));
+}

@@ -54,7 +54,8 @@ pub fn copy_demo(dest: &Path) -> PathBuf {
     out
 }
 
-fn copy_tree(from: &Path, to: &Path) {
+/// A copy of the folder `from` (and everything under it) at `to`.
+pub fn copy_tree(from: &Path, to: &Path) {
     std::fs::create_dir_all(to).unwrap();
     for entry in std::fs::read_dir(from).unwrap() {
         let entry = entry.unwrap();

@@ -77,6 +77,60 @@ pub struct MultiViewReport {
     pub max_shift: Vec<Real>,
 }
 
+/// A view whose fit after registration is far from the others': under [`MISFIT_SHARE`] of their
+/// median share of points on the rest, and over [`MISFIT_RMS`] times their median RMS.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
+pub struct Misfit {
+    /// The view (an index into [`MultiViewReport::views`]; the scan's view number in a register
+    /// report).
+    pub view: usize,
+    /// Its share of points with a correspondence on the other views.
+    pub fitness: Real,
+    /// Their RMS point-to-plane distance.
+    pub rms: Real,
+    /// The other views' median share.
+    pub median_fitness: Real,
+    /// Their median RMS.
+    pub median_rms: Real,
+}
+
+/// A misfit's share of points on the others is under this share of their median: a view that turned
+/// with the rest lands nearly as much of itself on them as they do (0.89–0.94 on a simulated
+/// 12-view scan), and one captured where the turntable did not turn lands about half (0.51).
+pub const MISFIT_SHARE: Real = 0.7;
+
+/// … and its RMS over this many times their median (the same scan: 0.02–0.07 mm, the stalled view
+/// 0.25 mm): both, so a view that sees a thin side (fewer points on the others) or a rough part
+/// (a higher RMS) is not one.
+pub const MISFIT_RMS: Real = 3.0;
+
+impl MultiViewReport {
+    /// The views that fit the others far worse than they fit each other (see [`Misfit`]): the
+    /// turntable slipped or stalled for them, or the object moved. Needs four views registered.
+    pub fn misfits(&self) -> Vec<Misfit> {
+        // The anchor's report is empty: it was not registered.
+        let registered: Vec<(usize, &IcpReport)> =
+            self.views.iter().enumerate().filter(|(_, r)| r.iterations > 0).collect();
+        if registered.len() < 4 {
+            return Vec::new();
+        }
+        let median = |mut v: Vec<Real>| {
+            v.sort_by(Real::total_cmp);
+            v[v.len() / 2]
+        };
+        registered
+            .iter()
+            .filter_map(|&(view, r)| {
+                let others = || registered.iter().filter(|(v, _)| *v != view).map(|(_, o)| *o);
+                let median_fitness = median(others().map(|o| o.fitness).collect());
+                let median_rms = median(others().map(|o| o.inlier_rmse).collect());
+                (r.fitness < MISFIT_SHARE * median_fitness && r.inlier_rmse > MISFIT_RMS * median_rms)
+                    .then_some(Misfit { view, fitness: r.fitness, rms: r.inlier_rmse, median_fitness, median_rms })
+            })
+            .collect()
+    }
+}
+
 /// The union of the views `include` says yes to, at their poses: `per_view` points each, fewer when
 /// that would exceed `max_points` in all.
 fn union_target(

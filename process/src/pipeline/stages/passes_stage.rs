@@ -85,6 +85,7 @@ pub fn register_passes(
             report.max_shift_mm = report.max_shift_mm.max(r.max_shift_mm);
             report.sensor_normals += r.sensor_normals;
             report.refused.extend(r.refused);
+            report.misfits.extend(r.misfits);
             if reference_pass {
                 report.refinement = r.refinement;
                 report.lasers = r.lasers;

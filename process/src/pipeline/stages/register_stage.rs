@@ -7,7 +7,7 @@ use crate::merge::CropParams;
 use crate::merge::views::{ViewData, ViewGrid};
 use crate::pipeline::records::{Fingerprint, StageCode, rig_part};
 use crate::register::lasers::{LaserAlignParams, LasersReport};
-use crate::register::multiview::MultiViewReport;
+use crate::register::multiview::{Misfit, MultiViewReport};
 use crate::register::register_scan::{Refused, RegisterParams, Tolerance, ViewPose, register_grids};
 use rig::math::{Isometry3, Point3, Real};
 use rig::{PointCloud, RangeGrid, TurntableAxis};
@@ -35,6 +35,10 @@ pub struct RegisterReport {
     pub refused: Vec<Refused>,
     /// The multi-view refinement's rounds.
     pub refinement: MultiViewReport,
+    /// Views that fit the others far worse than they fit each other after registration (a turntable
+    /// step that slipped or did not happen, an object that moved), by view number.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub misfits: Vec<Misfit>,
     /// A laser scan's: how its lasers were aligned with each other (its views are lines, not refined
     /// one by one).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -102,6 +106,29 @@ impl RegisterReport {
         // Every pass's lasers: a plane that is off shows in each pass a laser scan has.
         let lasers = self.lasers.iter().chain(self.passes.iter().flatten().filter_map(|a| a.lasers.as_ref()));
         let disagreements = unaligned.into_iter().chain(lasers.flat_map(LasersReport::disagreements));
+        let mut misfits = Vec::new();
+        for m in &self.misfits {
+            let what = format!(
+                "view {} fits the other views far worse than they fit each other after registration: {:.0} % of its \
+                 points lie on them (the others' median {:.0} %), at an RMS of {:.3} mm (theirs {:.3} mm)",
+                m.view,
+                100.0 * m.fitness,
+                100.0 * m.median_fitness,
+                m.rms,
+                m.median_rms
+            );
+            if !force {
+                return Err(StageError::Implausible {
+                    what,
+                    hint: "the turntable may not have turned (or turned too far) for that view, or the object moved \
+                           on the platter: check that the platter turns freely and the object stands fixed, and scan \
+                           again; --force keeps the view at its registered pose"
+                        .into(),
+                });
+            }
+            misfits.push(format!("{what}: kept at its registered pose (--force)"));
+        }
+        let disagreements = misfits.into_iter().chain(disagreements);
         let Some(first) = self.refused.first() else { return Ok(disagreements.collect()) };
         let limit = format!(
             "beyond the {}° and {} mm a turntable can be off (--max-correction-deg, --max-correction-mm)",
@@ -165,6 +192,7 @@ pub fn register(
             .map(|p| Refused { view: p.view, laser: None, rotation_deg: p.rotation_change_deg, shift_mm: p.shift_mm })
             .collect(),
         points: cloud.len(),
+        misfits: refinement.misfits().into_iter().map(|m| Misfit { view: refs[m.view].0, ..m }).collect(),
         refinement,
         lasers: None,
         passes: None,
@@ -249,6 +277,7 @@ pub fn register_lasers(
         sensor_normals: mr.sensor_normals,
         refused,
         refinement: MultiViewReport::default(),
+        misfits: Vec::new(),
         lasers: Some(lr),
         passes: None,
     };
@@ -265,7 +294,7 @@ pub fn poses_json(poses: &[ViewPose]) -> Vec<u8> {
 }
 
 /// The register stage's code version (the registered cloud and its poses).
-pub const REGISTER: StageCode = StageCode { stage: "register", version: 1 };
+pub const REGISTER: StageCode = StageCode { stage: "register", version: 2 };
 
 /// What registration is made from besides the views' measurements: the crop (the working volume's),
 /// the registration parameters and the turntable exactly as the rig describes it.
