@@ -308,6 +308,7 @@ pub fn streamlines(
 /// each path along edges.
 pub fn snap_lines(mesh: &TriMesh, lines: &[ConstraintLine]) -> Result<Vec<Vec<usize>>, RemeshError> {
     let n = mesh.vertices.len();
+    let size = mesh.bounding_box().map_or(0.0, |b| b.diagonal());
     let mut out = Vec::with_capacity(lines.len());
     for (i, line) in lines.iter().enumerate() {
         let mut path: Vec<usize> = match line {
@@ -320,11 +321,27 @@ pub fn snap_lines(mesh: &TriMesh, lines: &[ConstraintLine]) -> Result<Vec<Vec<us
             ConstraintLine::Points(points) => points
                 .iter()
                 .map(|p| {
-                    (0..n)
+                    let near = (0..n)
                         .min_by(|&a, &b| {
                             (mesh.vertices[a] - p).norm_squared().total_cmp(&(mesh.vertices[b] - p).norm_squared())
                         })
-                        .ok_or(RemeshError::Empty)
+                        .ok_or(RemeshError::Empty)?;
+                    // A point far off the surface is in another unit or frame, not a point on it.
+                    let off = (mesh.vertices[near] - p).norm();
+                    if off > MAX_SNAP * size {
+                        return Err(RemeshError::BadLine(
+                            i,
+                            format!(
+                                "its point ({}, {}, {}) lies {off:.4} from the mesh's nearest vertex, over {:.0} % of \
+                                 the mesh's size ({size:.4}): points must lie on the mesh, in its units and frame",
+                                p.x,
+                                p.y,
+                                p.z,
+                                100.0 * MAX_SNAP
+                            ),
+                        ));
+                    }
+                    Ok(near)
                 })
                 .collect::<Result<_, _>>()?,
         };
@@ -336,6 +353,10 @@ pub fn snap_lines(mesh: &TriMesh, lines: &[ConstraintLine]) -> Result<Vec<Vec<us
     }
     Ok(out)
 }
+
+/// Farthest a constraint point may lie from the mesh's nearest vertex, as a share of the mesh's
+/// bounding-box diagonal: a point picked on the surface in another tool lies within an edge or two.
+pub const MAX_SNAP: Real = 0.05;
 
 /// Dijkstra distances along edges from `start`, with each vertex's predecessor.
 fn edge_distances(mesh: &TriMesh, neighbours: &[Vec<u32>], start: usize) -> (Vec<Real>, Vec<u32>) {
