@@ -340,11 +340,16 @@ pub fn align_global(
     // (two thirds of a mirrored bunny's matches did), and one that is not would spend all of them.
     let quick = GlobalParams { max_iterations: params.max_iterations.div_ceil(10), ..*params };
     let mirror = align_described(&describe(&flipped, params.voxel, "moving")?, &f, &quick);
-    // (No motion found as it is: any trusted mirrored one is the better.)
-    let better = found.inliers == 0
-        || (mirror.overlap >= found.overlap
-            && mirror.rms <= MIRROR_RMS * found.rms
-            && mirror.inliers >= 2 * found.inliers);
+    // (No motion found as it is: any trusted mirrored one is the better.) An object that fits well
+    // turned more ways than one is said to be ambiguous first: a sphere's samples with two axes
+    // swapped (a mirror image of the very points) fit exactly mirrored, yet the shape fits any way.
+    let ambiguous =
+        found.inliers >= params.min_inliers && found.overlap >= params.min_overlap && found.rival_share > AMBIGUOUS;
+    let better = !ambiguous
+        && (found.inliers == 0
+            || (mirror.overlap >= found.overlap
+                && mirror.rms <= MIRROR_RMS * found.rms
+                && mirror.inliers >= 2 * found.inliers));
     if mirror.aligned && better {
         found.aligned = false;
         found.why = format!(
@@ -361,6 +366,9 @@ pub fn align_global(
     }
     Ok(found)
 }
+
+/// The best other motion's share of the landing past which an alignment is ambiguous.
+const AMBIGUOUS: Real = 0.8;
 
 /// A mirrored fit is clearly better when its RMS is at most this share of the fit as it is (and it
 /// lands as much with twice the matches agreeing): a mirrored bunny's 0.41.
@@ -413,7 +421,7 @@ fn align_described(m: &Described, f: &Described, params: &GlobalParams) -> Globa
         )
     } else if share < params.min_overlap {
         format!("only {:.0} % of the moving cloud lands on the fixed one", 100.0 * share)
-    } else if rival_share > 0.8 {
+    } else if rival_share > AMBIGUOUS {
         format!(
             "ambiguous: another motion lands {:.0} % as much of the cloud (a symmetric or featureless object?)",
             100.0 * rival_share
