@@ -181,13 +181,17 @@ impl PatternOutput for WindowProjector {
         while let Ok(r) = self.presented.try_recv() {
             why = r.err().or(why);
         }
-        self.proxy
-            .send_event(Msg::Show(frame))
-            .map_err(|_| CameraError::Unavailable(why.unwrap_or_else(|| "the projector window has closed".into())))?;
-        self.presented
-            .recv_timeout(Duration::from_secs(5))
-            .map_err(|_| CameraError::Unavailable("the projector window did not present the pattern".into()))?
-            .map_err(CameraError::Unavailable)
+        let closed =
+            || CameraError::Unavailable(why.clone().unwrap_or_else(|| "the projector window has closed".into()));
+        self.proxy.send_event(Msg::Show(frame)).map_err(|_| closed())?;
+        match self.presented.recv_timeout(Duration::from_secs(5)) {
+            Ok(r) => r.map_err(CameraError::Unavailable),
+            // The loop ended after the pattern was sent (having said why, or its window closed).
+            Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => Err(closed()),
+            Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                Err(CameraError::Unavailable("the projector window did not present the pattern".into()))
+            }
+        }
     }
 }
 

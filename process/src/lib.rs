@@ -61,6 +61,7 @@ pub use limits::ParamError;
 pub mod validate;
 
 pub mod kd_tree;
+pub mod median;
 pub mod mesh_distance;
 pub mod normals;
 pub mod preview;

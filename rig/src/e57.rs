@@ -278,6 +278,35 @@ mod tests {
         out.into_inner()
     }
 
+    /// A cloud's normals are turned by its pose as its points are: a quarter turn about z takes the
+    /// normal +x to +y.
+    #[test]
+    fn normals_are_turned_by_the_clouds_pose() {
+        let mut out = Cursor::new(Vec::new());
+        {
+            let mut w = E57Writer::new(&mut out, "posed-normals").unwrap();
+            w.register_extension(Extension::new(NORMALS_URL.0, NORMALS_URL.1)).unwrap();
+            let mut proto = vec![Record::CARTESIAN_X_F64, Record::CARTESIAN_Y_F64, Record::CARTESIAN_Z_F64];
+            let unit = RecordDataType::Single { min: Some(-1.0), max: Some(1.0) };
+            proto.extend(["X", "Y", "Z"].map(|a| Record { name: normal_name(a), data_type: unit.clone() }));
+            let mut pc = w.add_pointcloud("posed-cloud", proto).unwrap();
+            let h = 0.5f64.sqrt();
+            pc.set_transform(Some(e57::Transform {
+                rotation: e57::Quaternion { w: h, x: 0.0, y: 0.0, z: h },
+                translation: e57::Translation { x: 0.0, y: 0.0, z: 0.0 },
+            }));
+            let v = [RecordValue::Double(0.1), RecordValue::Double(0.0), RecordValue::Double(0.0)];
+            let n = [RecordValue::Single(1.0), RecordValue::Single(0.0), RecordValue::Single(0.0)];
+            pc.add_point(v.into_iter().chain(n).collect()).unwrap();
+            pc.finalize().unwrap();
+            w.finalize().unwrap();
+        }
+        let back = parse(&out.into_inner()).unwrap();
+        assert!((back.positions[0] - Point3::new(0.0, 100.0, 0.0)).norm() < 1e-9, "{}", back.positions[0]);
+        let n = back.normals.unwrap()[0];
+        assert!((n - crate::math::Vector3::y()).norm() < 1e-6, "{n}");
+    }
+
     /// A pose quaternion (2, 0, 0, 0) scaled the cloud ×4 (issue 37): a near-unit one is normalised, one
     /// far from unit or zero is refused naming the pose.
     #[test]

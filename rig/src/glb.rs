@@ -5,9 +5,10 @@
 //! glTF's units are metres and its up axis +y; scanrig's object frame is millimetres with the turntable
 //! axis +z. The data stay in millimetres and +z (exact, what other scanrig commands read back) and the
 //! node carries the change: a scale of 1/1000 and −90° about x. Reading applies every node's transform
-//! and undoes that convention, so any glTF file comes in as millimetres, +z up. Data in another unit
-//! (a PLY's `comment units m`) are brought to millimetres first, and data that single precision
-//! would not hold are refused ([`crate::mesh_io::write_mesh`], [`crate::precision`]).
+//! and undoes that convention, so any glTF file comes in as millimetres, +z up. Written through
+//! [`crate::mesh_io`] (the commands' outputs), data in another unit (a PLY's `comment units m`) are
+//! brought to millimetres first, and data that single precision would not hold are refused
+//! ([`crate::precision`]); the pipeline's own `mesh.glb` is of its scan, in millimetres.
 
 use crate::error::{Error, Location, ParseError, Problem};
 use crate::math::{Matrix3, Point3, Vector3};

@@ -46,9 +46,11 @@ impl Rounding {
         Rounding { worst, diagonal: if diagonal.is_finite() { diagonal } else { 0.0 }, farthest }
     }
 
-    /// Whether single precision keeps the shape (within [`MAX_ROUNDING`] of its size).
+    /// Whether single precision keeps the shape (within [`MAX_ROUNDING`] of its size). Points all at
+    /// one place have no shape to lose: they hold unless a coordinate is past single precision's
+    /// range.
     pub fn holds(&self) -> bool {
-        self.worst <= MAX_ROUNDING * self.diagonal || self.worst == 0.0
+        if self.diagonal > 0.0 { self.worst <= MAX_ROUNDING * self.diagonal } else { self.worst.is_finite() }
     }
 
     /// Why a single-precision format cannot take the points.
@@ -82,7 +84,7 @@ mod tests {
     use super::*;
 
     /// A sphere near the origin keeps single precision; the same far out, or in survey coordinates
-    /// (metres, 5·10⁶ out), does not; a cloud of one point at a place a float holds exactly does.
+    /// (metres, 5·10⁶ out), does not; a cloud of one point does, unless it lies past float's range.
     #[test]
     fn single_precision_holds_an_object_near_the_origin_only() {
         let sphere: Vec<Point3> = (0..200)
@@ -100,7 +102,9 @@ mod tests {
             sphere.iter().map(|p| Point3::new(5e5 + p.x / 1e3, 5e6 + p.y / 1e3, 100.0 + p.z / 1e3)).collect();
         assert!(!Rounding::of(&survey).holds());
         assert!(Rounding::of(&[Point3::new(0.5, 2.0, -4.0)]).holds());
-        assert!(!Rounding::of(&[Point3::new(0.1, 0.0, 0.0)]).holds());
+        // One place: nothing to lose, unless past float's range.
+        assert!(Rounding::of(&[Point3::new(0.1, 0.0, 0.0)]).holds());
+        assert!(!Rounding::of(&[Point3::new(1e300, 0.0, 0.0)]).holds());
         assert_eq!(
             (millimetres_per("m"), millimetres_per("MM"), millimetres_per("furlong")),
             (Some(1000.0), Some(1.0), None)

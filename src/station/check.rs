@@ -7,7 +7,6 @@ use super::Station;
 use super::devices::CameraChoice;
 use super::live::{Shooting, check_program, live_camera, saturated, shoot};
 use acquire::Turntable;
-use acquire::camera::PatternOutput;
 use anyhow::Result;
 use rig::Pattern;
 use rig::image::Image8;
@@ -182,6 +181,6 @@ fn checks(st: &Station, rig: &rig::Rig, link: &mut super::devices::Link) -> Resu
             "switch the projector on, show its output on the right monitor, aim and focus it on the platter",
         );
     }
-    projector.show(None)?;
+    // The window goes back to the hand setting as `projector` is dropped.
     Ok(())
 }

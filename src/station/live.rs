@@ -31,7 +31,7 @@ pub fn set_exposure(st: &Station, b: &serde_json::Value) -> Result<serde_json::V
 }
 
 /// What the projector shows by hand, from `{pattern}`: white, black or off. The projector's window,
-/// where the station has one, shows it now, unless a job drives the projector (409).
+/// where the station has one, shows it now, or when the job driving the projector ends.
 pub fn set_projector(st: &Station, b: &serde_json::Value) -> Result<serde_json::Value, (u16, String)> {
     let p = match b["pattern"].as_str() {
         Some("white") => Some(Pattern::White),
@@ -39,10 +39,15 @@ pub fn set_projector(st: &Station, b: &serde_json::Value) -> Result<serde_json::
         Some("off") => None,
         _ => return Err((400, format!("pattern: white, black or off, got {}", b["pattern"]))),
     };
-    if let Some(w) = &st.window {
-        st.exclusive("projector", || w.show(p).map_err(|e| format!("the projector's window: {e}")))?;
-    }
     *lock(&st.projector) = p;
+    // Shown now where no job drives the projector; a job (a scan, a live frame) puts the hand
+    // setting back on the window when it ends.
+    if let Some(w) = &st.window {
+        match st.exclusive("projector", || w.show(p).map_err(|e| format!("the projector's window: {e}"))) {
+            Ok(()) | Err((409, _)) => {}
+            Err(e) => return Err(e),
+        }
+    }
     st.bus.send("state", st.state_json());
     Ok(json!({ "projector": b["pattern"] }))
 }
@@ -206,7 +211,6 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
                 let refs: Vec<(Pattern, &Image8)> = frames.iter().map(|(p, i)| (*p, i)).collect();
                 let (map, report) =
                     process::decode_view(&refs, p.lens.width, p.lens.height, &process::DecodeParams::default())?;
-                projector.show(None)?;
                 note = format!(
                     "decoded {} of {} lit pixels; black: shadow (the projector does not reach it) or not lit",
                     report.decoded, report.lit
@@ -231,7 +235,8 @@ fn take(st: &Station, show: &str) -> Result<serde_json::Value> {
             }
             other => bail!("show: {other:?} is none of raw, colour, laser, decode, corners"),
         };
-        projector.show(None)?;
+        // The window goes back to the hand setting as `projector` is dropped.
+        drop(projector);
         Ok(json!({
             "image": web::picture::png_url(&picture),
             "saturated": sat,

@@ -118,7 +118,7 @@ impl Station {
         shown: &Arc<Mutex<Option<rig::Pattern>>>,
         program: &[rig::Pattern],
     ) -> Result<projector::Shown<'_>> {
-        projector::for_job(self.window.as_ref(), rig, &self.devices.camera(), shown, program)
+        projector::for_job(self.window.as_ref(), rig, &self.devices.camera(), shown, program, &self.projector)
     }
 
     /// Whether the station drives `rig`'s projector for the camera chosen ([`projector::drives`]).

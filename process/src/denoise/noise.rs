@@ -10,6 +10,7 @@
 //! share, `κh²/4`, is small wherever the grid samples its surface finely (the bunny's 0.7 mm cells on
 //! ≥ 15 mm radii: ≤ 0.01 mm).
 
+use crate::median::median;
 use rig::RangeGrid;
 use rig::math::Real;
 
@@ -42,16 +43,6 @@ impl NoiseLevel {
     pub fn ratio(&self) -> Real {
         self.sigma / self.spacing
     }
-}
-
-/// The median of `v` (reordered), or `None` when empty.
-fn median(v: &mut [Real]) -> Option<Real> {
-    if v.is_empty() {
-        return None;
-    }
-    let mid = v.len() / 2;
-    let (_, m, _) = v.select_nth_unstable_by(mid, Real::total_cmp);
-    Some(*m)
 }
 
 /// Measures the grid's sampling and noise from the cells whose neighbours out to two cells along the

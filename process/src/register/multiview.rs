@@ -114,10 +114,8 @@ impl MultiViewReport {
         if registered.len() < 4 {
             return Vec::new();
         }
-        let median = |mut v: Vec<Real>| {
-            v.sort_by(Real::total_cmp);
-            v[v.len() / 2]
-        };
+        // Four or more registered: three or more others, never empty.
+        let median = |mut v: Vec<Real>| crate::median::median(&mut v).unwrap_or(0.0);
         registered
             .iter()
             .filter_map(|&(view, r)| {

@@ -304,11 +304,19 @@ pub fn streamlines(
 }
 
 /// Constraint lines as read from a file, as vertex paths of `mesh`: indices are checked, and points
-/// snapped to their nearest vertex (consecutive duplicates dropped). [`remesh`] joins the vertices of
+/// snapped to their nearest vertex (consecutive duplicates dropped), a point farther from it than
+/// the longest edge and [`MAX_SNAP`] of the mesh's size refused. [`remesh`] joins the vertices of
 /// each path along edges.
 pub fn snap_lines(mesh: &TriMesh, lines: &[ConstraintLine]) -> Result<Vec<Vec<usize>>, RemeshError> {
     let n = mesh.vertices.len();
+    // How far a point on the surface can be from its nearest vertex is up to an edge (a coarse
+    // mesh's face centre), past it a share of the mesh's size.
     let size = mesh.bounding_box().map_or(0.0, |b| b.diagonal());
+    let longest = (mesh.faces.iter())
+        .flat_map(|f| (0..3).map(move |k| (f[k], f[(k + 1) % 3])))
+        .map(|(a, b)| (mesh.vertices[a as usize] - mesh.vertices[b as usize]).norm())
+        .fold(0.0, Real::max);
+    let reach = MAX_SNAP * size + longest;
     let mut out = Vec::with_capacity(lines.len());
     for (i, line) in lines.iter().enumerate() {
         let mut path: Vec<usize> = match line {
@@ -328,12 +336,13 @@ pub fn snap_lines(mesh: &TriMesh, lines: &[ConstraintLine]) -> Result<Vec<Vec<us
                         .ok_or(RemeshError::Empty)?;
                     // A point far off the surface is in another unit or frame, not a point on it.
                     let off = (mesh.vertices[near] - p).norm();
-                    if off > MAX_SNAP * size {
+                    if off > reach {
                         return Err(RemeshError::BadLine(
                             i,
                             format!(
-                                "its point ({}, {}, {}) lies {off:.4} from the mesh's nearest vertex, over {:.0} % of \
-                                 the mesh's size ({size:.4}): points must lie on the mesh, in its units and frame",
+                                "its point ({}, {}, {}) lies {off:.4} from the mesh's nearest vertex, over its longest \
+                                 edge and {:.0} % of its size ({size:.4}) more: points must lie on the mesh, in its \
+                                 units and frame",
                                 p.x,
                                 p.y,
                                 p.z,
@@ -354,8 +363,9 @@ pub fn snap_lines(mesh: &TriMesh, lines: &[ConstraintLine]) -> Result<Vec<Vec<us
     Ok(out)
 }
 
-/// Farthest a constraint point may lie from the mesh's nearest vertex, as a share of the mesh's
-/// bounding-box diagonal: a point picked on the surface in another tool lies within an edge or two.
+/// How much farther than the mesh's longest edge a constraint point may lie from its nearest vertex,
+/// as a share of the mesh's bounding-box diagonal: a point picked on the surface in another tool lies
+/// within an edge of a vertex.
 pub const MAX_SNAP: Real = 0.05;
 
 /// Dijkstra distances along edges from `start`, with each vertex's predecessor.

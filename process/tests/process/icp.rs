@@ -161,4 +161,10 @@ fn refine_from(views: &[process::register::multiview::View], truth: &[Isometry3]
         worst.0, worst.1, report.max_rotation_change_deg
     );
     assert!(worst.0 < 0.5 && worst.1 < 0.5, "worst {worst:?}");
+    // Real scans, the chin and the top ones seeing little of the rest among them: none is taken for
+    // a view the turntable did not turn for (the misfit check's thresholds were set on a simulated
+    // scan).
+    let fits: Vec<String> = report.views.iter().map(|r| format!("{:.2}/{:.3}", r.fitness, r.inlier_rmse)).collect();
+    eprintln!("seed {seed}: share on the others / RMS per scan: {fits:?}");
+    assert!(report.misfits().is_empty(), "{:?}", report.misfits());
 }

@@ -122,11 +122,11 @@ impl RegisterReport {
                     what,
                     hint: "the turntable may not have turned (or turned too far) for that view, or the object moved \
                            on the platter: check that the platter turns freely and the object stands fixed, and scan \
-                           again; --force keeps the view at its registered pose"
+                           again; --force keeps the view"
                         .into(),
                 });
             }
-            misfits.push(format!("{what}: kept at its registered pose (--force)"));
+            misfits.push(format!("{what}: kept (--force)"));
         }
         let disagreements = misfits.into_iter().chain(disagreements);
         let Some(first) = self.refused.first() else { return Ok(disagreements.collect()) };
