@@ -76,6 +76,15 @@ fn pair_angles(ps: &Point3, ns: &Vector3, pt: &Point3, nt: &Vector3) -> Option<(
     Some((v.dot(&nt), u.dot(&d), w.dot(&nt).atan2(u.dot(&nt))))
 }
 
+/// The descriptor of the same point in the cloud mirrored (any reflection): v = u × d turns with
+/// the reflection's sign, so α = v·n_t changes sign while φ and θ keep theirs, and the α histogram
+/// (bins symmetric about 0) is read backwards. Describing a mirror image this way costs nothing.
+pub fn mirrored(f: &Fpfh) -> Fpfh {
+    let mut m = *f;
+    m[..BINS].reverse();
+    m
+}
+
 /// The bin of `x` in `[lo, hi]`.
 fn bin(x: Real, lo: Real, hi: Real) -> usize {
     (((x - lo) / (hi - lo) * BINS as Real) as isize).clamp(0, BINS as isize - 1) as usize
@@ -199,6 +208,25 @@ mod tests {
             (0..pts.len()).filter(|&k| (8..32).contains(&(k / 40)) && (8..32).contains(&(k % 40))).collect();
         let own = interior.iter().filter(|&&k| nearest(&a[k], &b) == k).count();
         assert!(own * 10 >= interior.len() * 5, "{own} of {}", interior.len());
+    }
+
+    /// A mirror image's descriptors, computed afresh, are the originals read as a reflection reads
+    /// them (the α histogram backwards), up to the rare angle that falls on a bin's edge.
+    #[test]
+    fn a_mirror_images_descriptors_are_the_originals_reflected() {
+        let pts = patch();
+        let flipped: Vec<Point3> = pts.iter().map(|p| Point3::new(-p.x, p.y, p.z)).collect();
+        let describe = |p: &[Point3]| {
+            let tree = PointTree::new(p);
+            let n = outward_normals(p, &tree, 2.55);
+            fpfh(p, &n, &tree, 5.45)
+        };
+        let (a, b) = (describe(&pts), describe(&flipped));
+        let worst = a.iter().zip(&b).map(|(x, y)| distance2(&mirrored(x), y)).fold(0f32, f32::max);
+        assert!(worst < 1e-3, "{worst}");
+        // Not the descriptors as they were: the reflection changes them.
+        let unread = a.iter().zip(&b).map(|(x, y)| distance2(x, y)).fold(0f32, f32::max);
+        assert!(unread > 1.0, "{unread}");
     }
 
     #[test]

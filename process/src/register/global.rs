@@ -196,6 +196,18 @@ struct Described {
     features: Vec<Fpfh>,
 }
 
+/// `m` mirrored (x negated): its points and normals reflected, its descriptors read as a
+/// reflection reads them ([`super::features::mirrored`]), not computed again.
+fn mirrored(m: &Described) -> Described {
+    let points: Vec<Point3> = m.points.iter().map(|p| Point3::new(-p.x, p.y, p.z)).collect();
+    Described {
+        tree: PointTree::new(&points),
+        points,
+        normals: m.normals.iter().map(|n| Vector3::new(-n.x, n.y, n.z)).collect(),
+        features: m.features.iter().map(super::features::mirrored).collect(),
+    }
+}
+
 fn describe(points: &[Point3], voxel: Real, which: &'static str) -> Result<Described, GlobalError> {
     let points = voxel_thin(points, voxel);
     if points.len() < 30 {
@@ -329,17 +341,20 @@ pub fn align_global(
     finite(moving, "moving")?;
     finite(fixed, "fixed")?;
     let f = describe(fixed, params.voxel, "fixed")?;
-    let mut found = align_described(&describe(moving, params.voxel, "moving")?, &f, params);
+    let m = describe(moving, params.voxel, "moving")?;
+    let mut found = align_described(&m, &f, params, 0);
     // A mirror image lands much of itself somewhere near (79 % of a mirrored bunny did, at 2.4 times
     // the RMS, and was called aligned) or little (13 % of a mirrored scan: refused, but not said
     // why), and no rotation can turn it right: the moving cloud mirrored is aligned too, and a
     // trusted, clearly better fit says the file was written with an axis flipped. A mirror-symmetric
     // object fits both ways alike and is let be.
-    let flipped: Vec<Point3> = moving.iter().map(|p| Point3::new(-p.x, p.y, p.z)).collect();
-    // A tenth of the triples: a mirror image that is one agrees as readily as a cloud turned right
-    // (two thirds of a mirrored bunny's matches did), and one that is not would spend all of them.
-    let quick = GlobalParams { max_iterations: params.max_iterations.div_ceil(10), ..*params };
-    let mirror = align_described(&describe(&flipped, params.voxel, "moving")?, &f, &quick);
+    // A fiftieth of the triples (2,000): a mirror image that is one agrees as readily as a cloud
+    // turned right (two thirds of a mirrored bunny's matches did; the bunny's true pairs, a sixth,
+    // stop within 1,000–2,000), and one that is not would spend all of them.
+    let quick = GlobalParams { max_iterations: params.max_iterations.div_ceil(50), ..*params };
+    // Fewer agreeing matches than twice the fit as it is cannot be the better fit: not refined.
+    let floor = if found.inliers > 0 { 2 * found.inliers } else { params.min_inliers };
+    let mirror = align_described(&mirrored(&m), &f, &quick, floor);
     // (No motion found as it is: any trusted mirrored one is the better.) An object that fits well
     // turned more ways than one is said to be ambiguous first: a sphere's samples with two axes
     // swapped (a mirror image of the very points) fit exactly mirrored, yet the shape fits any way.
@@ -375,7 +390,8 @@ const AMBIGUOUS: Real = 0.8;
 const MIRROR_RMS: Real = 0.6;
 
 /// [`align_global`] of clouds described: matches, RANSAC, refinement and the verdict.
-fn align_described(m: &Described, f: &Described, params: &GlobalParams) -> GlobalAlignment {
+/// A motion fewer than `floor` matches agree on is not refined (it is told apart by its count alone).
+fn align_described(m: &Described, f: &Described, params: &GlobalParams, floor: usize) -> GlobalAlignment {
     // Matches: descriptors that are each other's nearest.
     let forward: Vec<usize> = m.features.par_iter().map(|d| nearest(d, &f.features)).collect();
     let backward: Vec<usize> = f.features.par_iter().map(|d| nearest(d, &m.features)).collect();
@@ -401,6 +417,19 @@ fn align_described(m: &Described, f: &Described, params: &GlobalParams) -> Globa
             iterations,
         };
     };
+    if inliers < floor {
+        return GlobalAlignment {
+            pose: start,
+            aligned: false,
+            why: format!("only {inliers} of {} matches agree (at least {floor} asked)", matches.len()),
+            matches: matches.len(),
+            inliers,
+            overlap: 0.0,
+            rms: 0.0,
+            rival_share: 0.0,
+            iterations,
+        };
+    }
     let pose = refine(&start, m, &target, params.voxel);
     let (share, rms) = overlap(&pose, &m.points, &f.tree, params.voxel);
     // The other motion, refined and measured the same way: a symmetric object lands as well turned.
