@@ -15,8 +15,10 @@ class StageError(ScanrigError): ...
 _Path = Union[str, PathLike[str]]
 _F64 = npt.NDArray[np.float64]
 
-def read_cloud(path: _Path) -> dict[str, Optional[np.ndarray]]:
-    """Reads a point cloud: points (N×3 float64), normals, colors (N×3 uint8), confidence, view_id."""
+def read_cloud(path: _Path) -> dict[str, Any]:
+    """Reads a point cloud: points (N×3 float64), normals, colors (N×3 uint8), confidence, view_id,
+    and units: the data's unit ("m" for a PLY that says so or the Stanford scans, "mm" for E57 and
+    glTF, None where the file says none: millimetres). Give it back to a writer's ``units``."""
 
 def write_cloud(
     path: _Path,
@@ -24,14 +26,26 @@ def write_cloud(
     normals: Optional[_F64] = None,
     colors: Optional[npt.NDArray[np.uint8]] = None,
     confidence: Optional[npt.NDArray[np.float32]] = None,
+    *,
+    units: Optional[str] = None,
 ) -> None:
-    """Writes a point cloud; the format follows the extension."""
+    """Writes a point cloud; the format follows the extension. ``units``: the data's unit (None:
+    millimetres); PLY says it, E57 and glTF are written converted from it."""
 
 def read_mesh(path: _Path) -> dict[str, Any]:
-    """Reads a mesh: vertices (V×3), faces (index lists), triangles (F×3), normals, colors."""
+    """Reads a mesh: vertices (V×3), faces (index lists), triangles (F×3), normals, colors, units
+    (as ``read_cloud``'s)."""
 
-def write_mesh(path: _Path, vertices: _F64, faces: np.ndarray, colors: Optional[npt.NDArray[np.uint8]] = None) -> None:
-    """Writes a mesh; the format follows the extension."""
+def write_mesh(
+    path: _Path,
+    vertices: _F64,
+    faces: np.ndarray,
+    colors: Optional[npt.NDArray[np.uint8]] = None,
+    *,
+    units: Optional[str] = None,
+) -> None:
+    """Writes a mesh; the format follows the extension. ``units``: the data's unit (None:
+    millimetres); PLY says it, E57, glTF and STL are written converted from it."""
 
 def fuse(
     points: _F64,
@@ -120,10 +134,12 @@ def write_image(path: _Path, image: _Image) -> None:
     """Writes an H×W or H×W×3 uint8 image: PNG, or JPEG for .jpg/.jpeg."""
 
 def read_range_grid(path: _Path) -> _Grid:
-    """Reads a range grid: points (H×W×3, NaN holes), normals, confidence (H×W float32), sensor."""
+    """Reads a range grid: points (H×W×3, NaN holes), normals, confidence (H×W float32), sensor,
+    units (as ``read_cloud``'s)."""
 
 def write_range_grid(path: _Path, grid: _Grid) -> None:
-    """Writes a range grid (a dict as read_range_grid gives) as a PLY with grid_col/grid_row."""
+    """Writes a range grid (a dict as read_range_grid gives) as a PLY with grid_col/grid_row, its
+    "units" (if any) in a ``comment units``."""
 
 def denoise(frames: Union[_Grid, list[_Grid]], *, current: int = 0, temporal: int = 0) -> tuple[_Grid, dict[str, Any]]:
     """Non-local denoising (thesis ch. 4: eq. 4.3 alone, eq. 4.6 over `temporal` frames either side)."""

@@ -3,9 +3,10 @@
 
 use crate::arrays::{self, Xyz};
 use crate::errors;
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_cloud, m)?)?;
@@ -20,7 +21,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 
 /// Reads a point cloud (any format scanrig reads, by extension). Returns a dict of arrays: points
 /// (N×3 float64), normals, colors (N×3 uint8), confidence (float32), view_id (uint32) — None where
-/// the file has none. What the file holds that cannot be kept is named in a `UserWarning`.
+/// the file has none — and units (see [`units_of`]). What the file holds that cannot be kept is
+/// named in a `UserWarning`.
 #[pyfunction]
 fn read_cloud(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     let read = py.detach(|| rig::read_cloud_reported(&path)).map_err(errors::file)?;
@@ -32,13 +34,45 @@ fn read_cloud(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("colors", cloud.colors.map(|c| arrays::colors_out(py, c)))?;
     d.set_item("confidence", cloud.confidence.map(|c| arrays::vec_out(py, c)))?;
     d.set_item("view_id", cloud.view_id.map(|c| arrays::vec_out(py, c)))?;
+    d.set_item("units", units_of(&path))?;
     Ok(d)
 }
 
+/// The unit of the data as a reader gives them: a PLY's own (its `comment units`, or metres for the
+/// Stanford scans' Cyberware header), millimetres for E57 and glTF (whose metres the readers turn
+/// into millimetres), None where the format says nothing (scanrig takes millimetres). Without it a
+/// cloud read in metres and written to E57 or glTF came out 1000 times too small, and a PLY written
+/// from it lost its unit.
+pub fn units_of(path: &Path) -> Option<String> {
+    match rig::MeshFormat::of(path) {
+        Some(rig::MeshFormat::Ply) => rig::ply::read_header(path).ok().and_then(|h| h.units()),
+        Some(rig::MeshFormat::E57 | rig::MeshFormat::Glb) => Some("mm".into()),
+        _ => None,
+    }
+}
+
+/// Write options for data in `units` (None: millimetres, unsaid): PLY says the unit in a
+/// `comment units`, E57, glTF and STL are written converted from it, as the commands write their
+/// inputs' units. A unit scanrig cannot convert is refused by name, whatever the format.
+pub fn write_options(units: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<rig::ply::WriteOptions> {
+    let opts = rig::ply::WriteOptions::default();
+    let Some(units) = units.filter(|u| !u.is_none()) else { return Ok(opts) };
+    let unit: String = units
+        .extract()
+        .map_err(|_| PyTypeError::new_err(format!("{name}: expected a unit's name (\"mm\", \"m\", …) or None")))?;
+    if rig::precision::millimetres_per(&unit).is_none() {
+        return Err(PyValueError::new_err(format!(
+            "{name}: {unit:?} is not a unit scanrig converts (mm, cm, m, um or in)"
+        )));
+    }
+    Ok(opts.with_units(&unit))
+}
+
 /// Writes a point cloud; the format follows the extension (binary PLY by default, float32
-/// coordinates as every viewer reads).
+/// coordinates as every viewer reads, float64 where float32 would round them). `units` is the
+/// data's unit (as `read_cloud` gives it; None: millimetres).
 #[pyfunction]
-#[pyo3(signature = (path, points, normals=None, colors=None, confidence=None))]
+#[pyo3(signature = (path, points, normals=None, colors=None, confidence=None, *, units=None))]
 fn write_cloud(
     py: Python<'_>,
     path: PathBuf,
@@ -46,7 +80,9 @@ fn write_cloud(
     normals: Option<&Bound<'_, PyAny>>,
     colors: Option<&Bound<'_, PyAny>>,
     confidence: Option<&Bound<'_, PyAny>>,
+    units: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<()> {
+    let opts = write_options(units, "units")?;
     let xyz = Xyz::extract(points, "points")?;
     let n = xyz.len();
     let cloud = rig::PointCloud {
@@ -56,12 +92,12 @@ fn write_cloud(
         confidence: arrays::optional_f32(confidence, "confidence", n)?,
         view_id: None,
     };
-    py.detach(|| rig::write_cloud(&path, &cloud, &rig::ply::WriteOptions::default())).map_err(errors::file)
+    py.detach(|| rig::write_cloud(&path, &cloud, &opts)).map_err(errors::file)
 }
 
 /// Reads a mesh (PLY, OBJ, STL, GLB). Returns a dict: vertices (V×3), faces (a list of index lists:
-/// triangles, quads, polygons as in the file), triangles (F×3, the faces fanned), normals, colors.
-/// What the file holds that cannot be kept is named in a `UserWarning`.
+/// triangles, quads, polygons as in the file), triangles (F×3, the faces fanned), normals, colors,
+/// units (see [`units_of`]). What the file holds that cannot be kept is named in a `UserWarning`.
 #[pyfunction]
 fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     let read = py.detach(|| rig::read_mesh_reported(&path)).map_err(errors::file)?;
@@ -74,19 +110,23 @@ fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("normals", mesh.normals.map(|n| arrays::vectors_out(py, n)))?;
     d.set_item("colors", mesh.colors.map(|c| arrays::colors_out(py, c)))?;
     d.set_item("vertices", arrays::points_out(py, mesh.vertices))?;
+    d.set_item("units", units_of(&path))?;
     Ok(d)
 }
 
-/// Writes a mesh; the format follows the extension. `faces` is an F×3 (or F×4) integer array.
+/// Writes a mesh; the format follows the extension. `faces` is an F×3 (or F×4) integer array;
+/// `units` the data's unit (as `read_mesh` gives it; None: millimetres).
 #[pyfunction]
-#[pyo3(signature = (path, vertices, faces, colors=None))]
+#[pyo3(signature = (path, vertices, faces, colors=None, *, units=None))]
 fn write_mesh(
     py: Python<'_>,
     path: PathBuf,
     vertices: &Bound<'_, PyAny>,
     faces: &Bound<'_, PyAny>,
     colors: Option<&Bound<'_, PyAny>>,
+    units: Option<&Bound<'_, PyAny>>,
 ) -> PyResult<()> {
+    let opts = write_options(units, "units")?;
     let v = Xyz::extract(vertices, "vertices")?;
     let f = arrays::faces(faces, v.len())?;
     let mut mesh = rig::PolyMesh { vertices: v.points().to_vec(), ..Default::default() };
@@ -94,7 +134,7 @@ fn write_mesh(
         mesh.push_face(face);
     }
     mesh.colors = arrays::optional_colors(colors, v.len())?;
-    py.detach(|| rig::write_mesh(&path, &mesh, &rig::ply::WriteOptions::default())).map_err(errors::file)
+    py.detach(|| rig::write_mesh(&path, &mesh, &opts)).map_err(errors::file)
 }
 
 /// Reads an image (PNG or JPEG): H×W uint8 for grey, H×W×3 for colour.
@@ -120,9 +160,10 @@ fn write_image(py: Python<'_>, path: PathBuf, image: &Bound<'_, PyAny>) -> PyRes
 }
 
 /// Writes a range grid (a dict as read_range_grid gives) as a PLY with grid_col/grid_row, float32,
-/// as scanrig writes its grids.
+/// as scanrig writes its grids; its "units", where it has them, in a `comment units`.
 #[pyfunction]
 fn write_range_grid(py: Python<'_>, path: PathBuf, grid: &Bound<'_, PyAny>) -> PyResult<()> {
     let g = crate::grids::grid_in(grid, "grid")?;
-    py.detach(|| rig::ply::write_range_grid(&path, &g, &rig::ply::WriteOptions::default())).map_err(errors::file)
+    let opts = write_options(grid.get_item("units").ok().as_ref(), "grid[\"units\"]")?;
+    py.detach(|| rig::ply::write_range_grid(&path, &g, &opts)).map_err(errors::file)
 }

@@ -115,11 +115,13 @@ pub fn grid_in(d: &Bound<'_, PyAny>, name: &str) -> PyResult<RangeGrid> {
 }
 
 /// Reads a range grid (PLY with grid_col/grid_row or a range_grid element, as scanrig and the
-/// Stanford scans write them).
+/// Stanford scans write them), with the data's "units" as `read_cloud` gives them.
 #[pyfunction]
 fn read_range_grid(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     let g = py.detach(|| rig::ply::read_range_grid(&path)).map_err(errors::file)?;
-    grid_out(py, g)
+    let d = grid_out(py, g)?;
+    d.set_item("units", crate::files::units_of(&path))?;
+    Ok(d)
 }
 
 /// Non-local denoising of a range grid (thesis ch. 4): each valid cell moved along its line of sight

@@ -46,6 +46,43 @@ def test_clouds_and_meshes_round_trip_through_files(tmp_path):
     assert np.allclose(back["points"], cloud["points"], atol=1e-6)
 
 
+def test_a_cloud_in_metres_keeps_its_unit_through_every_writer(tmp_path):
+    # The Stanford scans are in metres (their Cyberware header says so). Before, read_cloud gave no
+    # unit and the writers took millimetres: the E57 and glTF other tools open held a 0.16 mm bunny,
+    # and a PLY written back lost the unit.
+    cloud = scanrig.read_cloud(need(BUNNY / "data/bun000.ply"))
+    assert cloud["units"] == "m"
+    p = cloud["points"]
+    scanrig.write_cloud(tmp_path / "c.ply", p, units=cloud["units"])
+    back = scanrig.read_cloud(tmp_path / "c.ply")
+    assert back["units"] == "m" and np.allclose(back["points"], p, atol=1e-6)
+    for ext in ["e57", "glb"]:
+        scanrig.write_cloud(tmp_path / f"c.{ext}", p, units=cloud["units"])
+        back = scanrig.read_cloud(tmp_path / f"c.{ext}")
+        # Read back in millimetres, as every E57 and glTF is: the bunny 156 mm wide, not 0.156.
+        assert back["units"] == "mm", ext
+        assert np.allclose(back["points"], 1000.0 * p, atol=1e-3), ext
+        assert 150.0 < np.ptp(back["points"][:, 0]) < 160.0, ext
+    mesh = scanrig.read_mesh(need(BUNNY / "reconstruction/bun_zipper_res2.ply"))
+    scanrig.write_mesh(tmp_path / "m.stl", mesh["vertices"], mesh["triangles"], units="m")
+    back = scanrig.read_mesh(tmp_path / "m.stl")
+    # STL welds its corners again on reading: the box, not the vertex list, is compared.
+    box = lambda v: np.concatenate([v.min(axis=0), v.max(axis=0)])
+    assert back["units"] is None and np.allclose(box(back["vertices"]), 1000.0 * box(mesh["vertices"]), atol=1e-3)
+    grid = scanrig.read_range_grid(need(BUNNY / "data/bun000.ply"))
+    assert grid["units"] == "m"
+    scanrig.write_range_grid(tmp_path / "g.ply", grid)
+    assert scanrig.read_range_grid(tmp_path / "g.ply")["units"] == "m"
+    # A unit scanrig cannot convert is refused by name before anything is written, whatever the format.
+    for bad, error in [("furlong", ValueError), ("mn", ValueError), (3, TypeError)]:
+        for ext in ["ply", "e57"]:
+            with pytest.raises(error, match="units"):
+                scanrig.write_cloud(tmp_path / f"bad.{ext}", p, units=bad)
+            assert not (tmp_path / f"bad.{ext}").exists()
+        with pytest.raises(error, match="units"):
+            scanrig.write_range_grid(tmp_path / "bad.ply", {**grid, "units": bad})
+
+
 def test_what_a_reader_cannot_keep_is_a_python_warning_naming_the_file(tmp_path):
     # Two vertices with colours, one without: the colours cannot be kept per vertex.
     obj = tmp_path / "partly-coloured.obj"
