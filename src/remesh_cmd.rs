@@ -4,9 +4,20 @@ use crate::cli::RemeshArgs;
 use anyhow::{Context, Result};
 use process::pipeline::stages;
 use process::remesh::quad_remesh::{Streamlines, streamlines};
-use process::remesh::{RemeshReport, snap_lines};
+use process::remesh::{RemeshError, RemeshReport, snap_lines};
 use std::fmt::Write as _;
 use std::io::Write;
+
+/// A constraint polyline's error said at its line in `path` (`at_line[i]`: the line of polyline
+/// `i`); any other error as it is.
+fn on_its_line(e: stages::StageError, path: &std::path::Path, at_line: &[usize]) -> anyhow::Error {
+    match e {
+        stages::StageError::Remesh(RemeshError::BadLine(i, why)) if i < at_line.len() => {
+            anyhow::anyhow!("{}: line {}: this constraint line cannot be used: {why}", path.display(), at_line[i])
+        }
+        e => e.into(),
+    }
+}
 
 pub fn run(args: &RemeshArgs) -> Result<()> {
     let mut params = args.remesh.params()?;
@@ -25,9 +36,13 @@ pub fn run(args: &RemeshArgs) -> Result<()> {
         "{}: the mesh has no faces (a point cloud? `scanrig reconstruct` makes a mesh of one)",
         args.input.display()
     );
+    // Each polyline's line in the file: an unusable one is named by it, not by its place among the
+    // polylines (the library's count from 0, which the file's comments and blank lines shift).
+    let mut at_line: Vec<usize> = Vec::new();
     if let Some(path) = &args.constraints {
-        let lines = rig::remesh_inputs::read_constraints(path)?;
-        params.lines = snap_lines(&mesh, &lines).with_context(|| format!("{}", path.display()))?;
+        let (at, lines): (Vec<usize>, Vec<_>) = rig::remesh_inputs::read_constraints(path)?.into_iter().unzip();
+        params.lines = snap_lines(&mesh, &lines).map_err(|e| on_its_line(e.into(), path, &at))?;
+        at_line = at;
     }
     if let Some(path) = &args.conductivity {
         params.conductivity = Some(rig::remesh_inputs::read_face_values(path, mesh.faces.len())?);
@@ -40,6 +55,10 @@ pub fn run(args: &RemeshArgs) -> Result<()> {
         |phases| stages::remesh_counting(&mesh, &params, phases),
         |done, total| progress.update("remeshing", done, total),
     )
+    .map_err(|e| match &args.constraints {
+        Some(path) => on_its_line(e, path, &at_line),
+        None => e.into(),
+    })
     .with_context(context)?;
     progress.finish();
     // Checked before anything is written: an unforced implausible remesh leaves no file.

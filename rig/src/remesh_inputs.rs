@@ -36,6 +36,13 @@ fn text(bytes: &[u8]) -> Result<&str, ParseError> {
 
 /// Parses a constraint-line file (see the module notes).
 pub fn parse_constraints(bytes: &[u8]) -> Result<Vec<ConstraintLine>, ParseError> {
+    Ok(parse_numbered_constraints(bytes)?.into_iter().map(|(_, c)| c).collect())
+}
+
+/// [`parse_constraints`], each polyline with the file's line it is on (from 1): a polyline found
+/// unusable later (a vertex not in the mesh) is named by that line, not by its place among the
+/// polylines, which comments and blank lines shift.
+pub fn parse_numbered_constraints(bytes: &[u8]) -> Result<Vec<(usize, ConstraintLine)>, ParseError> {
     let mut out = Vec::new();
     for (i, raw) in text(bytes)?.lines().enumerate() {
         let at = || Location::Line(i + 1);
@@ -62,7 +69,7 @@ pub fn parse_constraints(bytes: &[u8]) -> Result<Vec<ConstraintLine>, ParseError
             if points.len() < 2 {
                 return Err(ParseError::new(at(), Problem::Invalid("a line needs at least two points".into())));
             }
-            out.push(ConstraintLine::Points(points));
+            out.push((i + 1, ConstraintLine::Points(points)));
         } else {
             let vertices: Vec<usize> = tokens
                 .map(|t| t.parse::<usize>().map_err(|_| ParseError::new(at(), Problem::NotANumber(t.into()))))
@@ -70,7 +77,7 @@ pub fn parse_constraints(bytes: &[u8]) -> Result<Vec<ConstraintLine>, ParseError
             if vertices.len() < 2 {
                 return Err(ParseError::new(at(), Problem::Invalid("a line needs at least two vertices".into())));
             }
-            out.push(ConstraintLine::Vertices(vertices));
+            out.push((i + 1, ConstraintLine::Vertices(vertices)));
         }
     }
     Ok(out)
@@ -98,9 +105,9 @@ pub fn parse_face_values(bytes: &[u8], faces: usize) -> Result<Vec<Real>, ParseE
     Ok(out)
 }
 
-/// Reads a constraint-line file.
-pub fn read_constraints(path: &Path) -> Result<Vec<ConstraintLine>, Error> {
-    parse_constraints(&read_bytes(path)?).map_err(|e| e.with_path(path))
+/// Reads a constraint-line file, each polyline with its line ([`parse_numbered_constraints`]).
+pub fn read_constraints(path: &Path) -> Result<Vec<(usize, ConstraintLine)>, Error> {
+    parse_numbered_constraints(&read_bytes(path)?).map_err(|e| e.with_path(path))
 }
 
 /// Reads a per-face value file for a mesh of `faces` faces.
@@ -118,6 +125,8 @@ mod tests {
         let lines = parse_constraints(text).unwrap();
         assert_eq!(lines[0], ConstraintLine::Vertices(vec![12, 45, 78]));
         assert_eq!(lines[1], ConstraintLine::Points(vec![Point3::origin(), Point3::new(1.0, 0.0, 0.0)]));
+        let at: Vec<usize> = parse_numbered_constraints(text).unwrap().iter().map(|l| l.0).collect();
+        assert_eq!(at, [2, 4], "each polyline's line in the file, comments and blank lines counted");
     }
 
     #[test]
