@@ -472,7 +472,8 @@ fn spacing(positions: &[Point3], tree: &PointTree) -> Real {
 /// What [`judge_support`] finds wrong with a mesh on its cloud.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Finding {
-    /// The cloud holds points apart from the object that widen the grid ([`Apart`]).
+    /// The cloud holds points apart from the object that widen the grid ([`Apart`]): a few strays,
+    /// or another piece as large.
     Apart,
     /// The mesh's faces turn inward ([`Support::volume`]).
     InsideOut,
@@ -498,8 +499,7 @@ pub fn judge_support(support: &Support, force: bool) -> Result<Vec<String>, Stag
                 "the cloud's points",
                 "the grid's cells, and the mesh, are that much coarser than the object alone would get",
             ),
-            "crop them off (`scanrig fuse` drops them where they are few and scattered); if they are a part of \
-             the object, --force keeps them",
+            a.hint(),
         ));
     }
     // A surface without volume (a flat cloud's, closed on itself) has a sign of rounding only.

@@ -7,9 +7,9 @@ use rig::math::Real;
 use rig::{PolyMesh, TriMesh};
 use serde_json::json;
 
-/// Refuses to remesh a mesh whose vertices include a few far from the rest ([`super::apart()`])
-/// unless `force`, else the warning to give: the quads' default spacing follows the mesh's size,
-/// so a stray vertex makes them that much coarser (one 10³⁰ mm out, an exporter's garbage, was
+/// Refuses to remesh a mesh whose vertices include a few far from the rest, or another piece far
+/// from the widest ([`super::apart()`]), unless `force`, else the warning to give: the quads'
+/// default spacing follows the mesh's size, so a stray vertex makes them that much coarser (one 10³⁰ mm out, an exporter's garbage, was
 /// refused only after the remesh, as quads straying 10²⁹ mm from the input).
 pub fn check_remesh_input(mesh: &TriMesh, force: bool) -> Result<Vec<String>, StageError> {
     let Some(a) = super::apart(&mesh.vertices).filter(|a| a.widening > super::MAX_WIDENING) else {
@@ -21,8 +21,11 @@ pub fn check_remesh_input(mesh: &TriMesh, force: bool) -> Result<Vec<String>, St
     }
     Err(StageError::Implausible {
         what,
-        hint: "remove them (an exporter's stray vertices?); if they are a part of the object, --force keeps them"
-            .into(),
+        hint: match a.pieces {
+            0 => "remove them (an exporter's stray vertices?); if they are a part of the object, --force keeps them",
+            _ => a.hint(),
+        }
+        .into(),
     })
 }
 
