@@ -17,12 +17,14 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
     let mut grid_note = None;
     // What the reader could not keep, each naming the file: printed, never dropped in silence.
     let mut warnings: Vec<String> = Vec::new();
+    // The data's unit as the input gives it, kept by every format written (OBJ had said none, so a
+    // cloud in metres went through it to E57 1000 times too small).
+    if let Some(u) = rig::data_units(&args.input)? {
+        opts = opts.with_units(&u);
+    }
     let mesh: Option<PolyMesh> = match MeshFormat::of(&args.input) {
         Some(MeshFormat::Ply) => {
             let ply = rig::ply::read(&args.input)?;
-            if let Some(u) = ply.header.units() {
-                opts = opts.with_units(&u);
-            }
             // A range grid stays one in PLY; in any other format only its points can go, and that is said.
             if rig::ply::is_range_grid(&ply) {
                 let grid = rig::ply::range_grid_from_ply(&ply).map_err(|e| e.with_path(&args.input))?;

@@ -148,6 +148,7 @@ fn describe(path: &Path) -> Result<FileInfo> {
         "obj" => {
             info.kind = "obj";
             let obj = rig::obj::read(path)?;
+            info.units = rig::obj::stated_units(path)?;
             info.vertices = Some(obj.mesh.vertices.len());
             info.faces = Some(face_info(&obj.mesh));
             info.bounding_box = box_info(obj.mesh.bounding_box());

@@ -82,11 +82,13 @@ fn same_file(a: &Path, b: &Path) -> bool {
 /// Write options that keep the input's units (a PLY `comment units …`).
 pub fn write_options_like(input: &Path) -> Result<rig::ply::WriteOptions> {
     let mut opts = rig::ply::WriteOptions::default();
+    // The data's unit as the input gives it (a PLY's or an OBJ's comment; E57 and glTF are read in
+    // millimetres), so every format written from them keeps it.
+    if let Some(u) = rig::data_units(input)? {
+        opts = opts.with_units(&u);
+    }
     if rig::MeshFormat::of(input) == Some(rig::MeshFormat::Ply) {
         let header = rig::ply::read_header(input)?;
-        if let Some(u) = header.units() {
-            opts = opts.with_units(&u);
-        }
         // Still in a turntable's object frame: the output says so as the input did.
         if rig::ply::in_turntable_frame(&header) {
             opts.comments.push(rig::ply::TURNTABLE_FRAME.into());

@@ -6,7 +6,7 @@ use crate::errors;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_cloud, m)?)?;
@@ -21,8 +21,8 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
 
 /// Reads a point cloud (any format scanrig reads, by extension). Returns a dict of arrays: points
 /// (N×3 float64), normals, colors (N×3 uint8), confidence (float32), view_id (uint32) — None where
-/// the file has none — and units (see [`units_of`]). What the file holds that cannot be kept is
-/// named in a `UserWarning`.
+/// the file has none — and units (the data's unit, [`rig::data_units`]; None: millimetres). What
+/// the file holds that cannot be kept is named in a `UserWarning`.
 #[pyfunction]
 fn read_cloud(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     let read = py.detach(|| rig::read_cloud_reported(&path)).map_err(errors::file)?;
@@ -34,21 +34,8 @@ fn read_cloud(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("colors", cloud.colors.map(|c| arrays::colors_out(py, c)))?;
     d.set_item("confidence", cloud.confidence.map(|c| arrays::vec_out(py, c)))?;
     d.set_item("view_id", cloud.view_id.map(|c| arrays::vec_out(py, c)))?;
-    d.set_item("units", units_of(&path))?;
+    d.set_item("units", rig::data_units(&path).map_err(errors::file)?)?;
     Ok(d)
-}
-
-/// The unit of the data as a reader gives them: a PLY's own (its `comment units`, or metres for the
-/// Stanford scans' Cyberware header), millimetres for E57 and glTF (whose metres the readers turn
-/// into millimetres), None where the format says nothing (scanrig takes millimetres). Without it a
-/// cloud read in metres and written to E57 or glTF came out 1000 times too small, and a PLY written
-/// from it lost its unit.
-pub fn units_of(path: &Path) -> Option<String> {
-    match rig::MeshFormat::of(path) {
-        Some(rig::MeshFormat::Ply) => rig::ply::read_header(path).ok().and_then(|h| h.units()),
-        Some(rig::MeshFormat::E57 | rig::MeshFormat::Glb) => Some("mm".into()),
-        _ => None,
-    }
 }
 
 /// Write options for data in `units` (None: millimetres, unsaid): PLY says the unit in a
@@ -97,7 +84,8 @@ fn write_cloud(
 
 /// Reads a mesh (PLY, OBJ, STL, GLB). Returns a dict: vertices (V×3), faces (a list of index lists:
 /// triangles, quads, polygons as in the file), triangles (F×3, the faces fanned), normals, colors,
-/// units (see [`units_of`]). What the file holds that cannot be kept is named in a `UserWarning`.
+/// units ([`rig::data_units`]). What the file holds that cannot be kept is named in a
+/// `UserWarning`.
 #[pyfunction]
 fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     let read = py.detach(|| rig::read_mesh_reported(&path)).map_err(errors::file)?;
@@ -110,7 +98,7 @@ fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("normals", mesh.normals.map(|n| arrays::vectors_out(py, n)))?;
     d.set_item("colors", mesh.colors.map(|c| arrays::colors_out(py, c)))?;
     d.set_item("vertices", arrays::points_out(py, mesh.vertices))?;
-    d.set_item("units", units_of(&path))?;
+    d.set_item("units", rig::data_units(&path).map_err(errors::file)?)?;
     Ok(d)
 }
 

@@ -120,7 +120,7 @@ pub fn grid_in(d: &Bound<'_, PyAny>, name: &str) -> PyResult<RangeGrid> {
 fn read_range_grid(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     let g = py.detach(|| rig::ply::read_range_grid(&path)).map_err(errors::file)?;
     let d = grid_out(py, g)?;
-    d.set_item("units", crate::files::units_of(&path))?;
+    d.set_item("units", rig::data_units(&path).map_err(errors::file)?)?;
     Ok(d)
 }
 

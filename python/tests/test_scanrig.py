@@ -56,6 +56,8 @@ def test_a_cloud_in_metres_keeps_its_unit_through_every_writer(tmp_path):
     scanrig.write_cloud(tmp_path / "c.ply", p, units=cloud["units"])
     back = scanrig.read_cloud(tmp_path / "c.ply")
     assert back["units"] == "m" and np.allclose(back["points"], p, atol=1e-6)
+    scanrig.write_cloud(tmp_path / "c.obj", p, units=cloud["units"])
+    assert scanrig.read_cloud(tmp_path / "c.obj")["units"] == "m"
     for ext in ["e57", "glb"]:
         scanrig.write_cloud(tmp_path / f"c.{ext}", p, units=cloud["units"])
         back = scanrig.read_cloud(tmp_path / f"c.{ext}")

@@ -120,5 +120,6 @@ pub mod split_mix;
 pub mod topology;
 pub mod union_find;
 pub use mesh_io::{
-    MeshFormat, Reported, read_cloud, read_cloud_reported, read_mesh, read_mesh_reported, write_cloud, write_mesh,
+    MeshFormat, Reported, data_units, read_cloud, read_cloud_reported, read_mesh, read_mesh_reported, write_cloud,
+    write_mesh,
 };

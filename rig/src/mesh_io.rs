@@ -143,7 +143,7 @@ pub fn write_mesh(path: &Path, mesh: &PolyMesh, opts: &WriteOptions) -> Result<(
     };
     match format_of(path, ".ply, .obj, .stl or .glb")? {
         MeshFormat::Ply => ply::write_mesh(path, mesh, opts),
-        MeshFormat::Obj => obj::write_mesh(path, mesh),
+        MeshFormat::Obj => obj::write_mesh(path, mesh, opts.units()),
         MeshFormat::Stl => stl::write_mesh(path, &*in_mm("STL")?, opts.encoding == Encoding::Ascii),
         MeshFormat::Glb => glb::write_mesh(path, &*in_mm("glTF")?),
         MeshFormat::Off | MeshFormat::E57 => Err(Error::UnknownFileType {
@@ -166,7 +166,7 @@ pub fn write_cloud(path: &Path, cloud: &PointCloud, opts: &WriteOptions) -> Resu
     };
     match format_of(path, ".ply, .obj, .glb or .e57")? {
         MeshFormat::Ply => ply::write_cloud(path, cloud, opts),
-        MeshFormat::Obj => obj::write_cloud(path, cloud),
+        MeshFormat::Obj => obj::write_cloud(path, cloud, opts.units()),
         MeshFormat::Glb => {
             let cloud = in_mm("glTF")?;
             single_precision(path, &cloud.positions, "glTF")?;
@@ -180,6 +180,21 @@ pub fn write_cloud(path: &Path, cloud: &PointCloud, opts: &WriteOptions) -> Resu
     }
 }
 
+/// The unit of the data a file holds as scanrig reads them: a PLY's own (its `comment units`, or
+/// metres for the Stanford scans' Cyberware header), an OBJ's (`# units`, as scanrig writes it),
+/// millimetres for E57 and glTF (whose metres the readers turn into millimetres), `None` where the
+/// file says nothing (scanrig takes millimetres). A writer given it back ([`WriteOptions::with_units`])
+/// keeps the unit through every format: before OBJ said none, a cloud in metres went through it to
+/// E57 1000 times too small.
+pub fn data_units(path: &Path) -> Result<Option<String>, Error> {
+    Ok(match MeshFormat::of(path) {
+        Some(MeshFormat::Ply) => ply::read_header(path)?.units(),
+        Some(MeshFormat::Obj) => obj::stated_units(path)?,
+        Some(MeshFormat::E57 | MeshFormat::Glb) => Some("mm".into()),
+        _ => None,
+    })
+}
+
 /// Millimetres in the data's unit (`opts`' `comment units …`; none: millimetres), for a format
 /// written in a unit of its own (E57 and glTF: metres, STL: millimetres), or why not.
 fn millimetres_per_unit(path: &Path, opts: &WriteOptions, format: &str) -> Result<f64, Error> {
@@ -187,7 +202,7 @@ fn millimetres_per_unit(path: &Path, opts: &WriteOptions, format: &str) -> Resul
     crate::precision::millimetres_per(unit).ok_or_else(|| Error::Refused {
         path: path.to_path_buf(),
         why: format!(
-            "the data's unit is {unit:?} (the input's `comment units`), which scanrig cannot convert to {format}'s \
+            "the data's unit is {unit:?} (the input's `units` comment), which scanrig cannot convert to {format}'s \
              (it knows mm, cm, m, µm and inches): write .ply or .obj, which keep the data's own numbers"
         ),
     })

@@ -229,10 +229,44 @@ fn write_vertices(out: &mut Vec<u8>, positions: &[Point3], colors: Option<&[[u8;
     }
 }
 
-/// A mesh as OBJ text: `v` (with colours, and `vn`, where the mesh has them), then `f` lines, triangles and quads
-/// alike. Coordinates are written in shortest round-trip form, so reading gives back the same values.
-pub fn mesh_to_bytes(mesh: &PolyMesh) -> Vec<u8> {
+/// The comment lines scanrig starts an OBJ file with: who wrote it, and the data's unit where it is
+/// known (`# units m`, which [`stated_units`] reads back: OBJ has no unit of its own, and a file
+/// without one is taken for millimetres).
+fn header(units: Option<&str>) -> Vec<u8> {
     let mut out = format!("# written by scanrig {}\n", env!("CARGO_PKG_VERSION")).into_bytes();
+    if let Some(u) = units {
+        let _ = writeln!(out, "# units {u}");
+    }
+    out
+}
+
+/// The unit an OBJ file's leading comments give its data (`# units m`, as scanrig writes them), or
+/// `None`. Only the comments before the first statement are read.
+pub fn stated_units(path: &Path) -> Result<Option<String>, Error> {
+    use std::io::{BufRead, Read};
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut lines = std::io::BufReader::new(file.take(1 << 16)).lines();
+    while let Some(Ok(line)) = lines.next() {
+        let line = line.trim();
+        let Some(comment) = line.strip_prefix('#') else {
+            if line.is_empty() {
+                continue;
+            }
+            break;
+        };
+        let mut words = comment.split_whitespace();
+        if words.next() == Some("units") {
+            return Ok(words.next().map(str::to_string));
+        }
+    }
+    Ok(None)
+}
+
+/// A mesh as OBJ text: `v` (with colours, and `vn`, where the mesh has them), then `f` lines, triangles and quads
+/// alike, in `units` where known (a `# units` comment). Coordinates are written in shortest round-trip form, so
+/// reading gives back the same values.
+pub fn mesh_to_bytes(mesh: &PolyMesh, units: Option<&str>) -> Vec<u8> {
+    let mut out = header(units);
     write_vertices(&mut out, &mesh.vertices, mesh.colors.as_deref(), mesh.normals.as_deref());
     for f in mesh.faces() {
         out.push(b'f');
@@ -245,19 +279,19 @@ pub fn mesh_to_bytes(mesh: &PolyMesh) -> Vec<u8> {
 }
 
 /// A point cloud as OBJ text: `v x y z [r g b]` and `vn` lines (OBJ has no place for confidence or
-/// view ids; use PLY to keep them).
-pub fn cloud_to_bytes(cloud: &PointCloud) -> Vec<u8> {
-    let mut out = format!("# written by scanrig {}\n", env!("CARGO_PKG_VERSION")).into_bytes();
+/// view ids; use PLY to keep them), in `units` where known (a `# units` comment).
+pub fn cloud_to_bytes(cloud: &PointCloud, units: Option<&str>) -> Vec<u8> {
+    let mut out = header(units);
     write_vertices(&mut out, &cloud.positions, cloud.colors.as_deref(), cloud.normals.as_deref());
     out
 }
 
-/// Writes a mesh as OBJ, atomically.
-pub fn write_mesh(path: &Path, mesh: &PolyMesh) -> Result<(), Error> {
-    write_atomic(path, &mesh_to_bytes(mesh))
+/// Writes a mesh as OBJ, atomically, saying its `units` where known.
+pub fn write_mesh(path: &Path, mesh: &PolyMesh, units: Option<&str>) -> Result<(), Error> {
+    write_atomic(path, &mesh_to_bytes(mesh, units))
 }
 
-/// Writes a point cloud as OBJ, atomically.
-pub fn write_cloud(path: &Path, cloud: &PointCloud) -> Result<(), Error> {
-    write_atomic(path, &cloud_to_bytes(cloud))
+/// Writes a point cloud as OBJ, atomically, saying its `units` where known.
+pub fn write_cloud(path: &Path, cloud: &PointCloud, units: Option<&str>) -> Result<(), Error> {
+    write_atomic(path, &cloud_to_bytes(cloud, units))
 }

@@ -595,7 +595,7 @@ fn remesh_turns_a_box_into_quads_along_its_edges_and_names_bad_inputs() {
     let input = d.path("box.obj");
     let cube = box_mesh(24, 30.0);
     assert_eq!(rig::topology::topology(&cube).genus(), Some(0));
-    rig::obj::write_mesh(&input, &cube.to_poly()).unwrap();
+    rig::obj::write_mesh(&input, &cube.to_poly(), None).unwrap();
     let out = d.path("box_quads.obj");
     let lines = d.path("box_lines.obj");
     let o = scanrig(&[&"remesh", &input, &"-o", &out, &"--spacing", &"1.5", &"--lines", &lines, &"--json"]);

@@ -268,7 +268,7 @@ fn sphere_file(path: &Path, centre: rig::Vector3, scale: f64, opts: &rig::ply::W
 }
 
 /// Found by a hostile user's probe (2026-12-07): a cloud in metres (Stanford's scans are) went out to
-/// E57 and glTF 1000 times too small, both being written as if the data were millimetres; and an
+/// E57 and glTF 1000 times too small (and through OBJ, which said no unit, still so a day later), both being written as if the data were millimetres; and an
 /// object far from the origin, read in double precision, was written in single precision, where a
 /// 60 mm sphere 10⁹ mm out became two points (`reconstruct`'s mesh) with exit 0 and no warning.
 #[test]
@@ -292,6 +292,13 @@ fn metres_and_far_coordinates_come_out_where_they_were() {
         let (lo, hi) = radius(&rig::read_cloud(&p(out)).unwrap().positions);
         assert!(lo > 29.99 && hi < 30.01, "{out}: radius {lo}–{hi} mm");
     }
+    // Through OBJ first (a second probe): OBJ keeps the numbers and now says their unit, so the E57
+    // made from it is the sphere too, not a 0.03 mm one.
+    ok(&scanrig(&[&"convert", &p("m.ply"), &p("m.obj")]));
+    assert_eq!(rig::data_units(&p("m.obj")).unwrap().as_deref(), Some("m"));
+    ok(&scanrig(&[&"convert", &p("m.obj"), &p("m_obj.e57")]));
+    let (lo, hi) = radius(&rig::read_cloud(&p("m_obj.e57")).unwrap().positions);
+    assert!(lo > 29.99 && hi < 30.01, "m.obj → E57: radius {lo}–{hi} mm");
     ok(&scanrig(&[&"reconstruct", &p("m.ply"), &"-o", &p("m.stl"), &"--base", &"closed", &"-q"]));
     let (lo, hi) = radius(&rig::read_mesh(&p("m.stl")).unwrap().vertices);
     assert!(lo > 29.0 && hi < 31.0, "STL: radius {lo}–{hi} mm");

@@ -34,7 +34,7 @@ fn run(name: &str) -> Option<(TriMesh, PolyMesh, RemeshReport)> {
         report.seconds.quads,
     );
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"));
-    rig::obj::write_mesh(&dir.join(format!("{name}.quads.obj")), &out).unwrap();
+    rig::obj::write_mesh(&dir.join(format!("{name}.quads.obj")), &out, None).unwrap();
     // Every output vertex lies on the input surface: it is a crossing of two lines traced on it.
     let diag = mesh.bounding_box().map(|b| (b.max - b.min).norm()).unwrap();
     let on = MeshDistance::new(&mesh, diag / 100.0);

@@ -112,8 +112,8 @@ element tristrips 1\nproperty list int int vertex_indices\nend_header\n"
     out.push(rig::e57::cloud_to_bytes(&cloud).expect("the seed cloud writes"));
     let grid = rig::RangeGrid { colors: Some(vec![[1, 2, 3]; 4]), ..cloud_grid() };
     out.push(ply::range_grid_to_bytes(&grid, &WriteOptions::default()));
-    out.push(rig::obj::mesh_to_bytes(&mesh));
-    out.push(rig::obj::cloud_to_bytes(&cloud));
+    out.push(rig::obj::mesh_to_bytes(&mesh, Some("m")));
+    out.push(rig::obj::cloud_to_bytes(&cloud, None));
     out.push(b"# obj\no thing\nv 0 0 0\nv 1 0 0\nv 0 1 0 0.5 0.5 0.5\nvt 0 0\nvn 0 0 1\nf 1/1/1 2/1/1 3/1/1\nf -3//1 -2//1 -1//1\nusemtl x\n".to_vec());
     out.push(b"OFF\n# c\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n4 0 1 2 3 255 0 0\n".to_vec());
     out.push(b"COFF 3 1 0\n0 0 0 1 1 1 1\n1 0 0 1 1 1 1\n0 1 0 1 1 1 1\n3 0 1 2\n".to_vec());

@@ -104,13 +104,13 @@ proptest! {
 
     #[test]
     fn obj_mesh_round_trip_triangles(m in mesh(3..=3)) {
-        let back = obj::parse(&obj::mesh_to_bytes(&m)).unwrap();
+        let back = obj::parse(&obj::mesh_to_bytes(&m, None)).unwrap();
         prop_assert_eq!(back.mesh, m);
     }
 
     #[test]
     fn obj_mesh_round_trip_quads(m in mesh(4..=4)) {
-        let back = obj::parse(&obj::mesh_to_bytes(&m)).unwrap();
+        let back = obj::parse(&obj::mesh_to_bytes(&m, None)).unwrap();
         prop_assert_eq!(back.mesh, m);
     }
 
@@ -118,7 +118,7 @@ proptest! {
     fn obj_cloud_round_trip(c in cloud()) {
         // OBJ holds positions, colours and normals; confidence and view ids need PLY.
         let c = PointCloud { confidence: None, view_id: None, ..c };
-        let back = obj::parse(&obj::cloud_to_bytes(&c)).unwrap();
+        let back = obj::parse(&obj::cloud_to_bytes(&c, None)).unwrap();
         prop_assert_eq!(&back.mesh.vertices, &c.positions);
         prop_assert_eq!(back.colors, c.colors.filter(|v| !v.is_empty()));
         prop_assert_eq!(back.mesh.normals, c.normals.filter(|v| !v.is_empty()));
