@@ -193,4 +193,13 @@ pub enum Error {
     /// The output folder is in use.
     #[error(transparent)]
     Lock(#[from] rig::folder_lock::LockError),
+    /// An output folder that is not this scan's to write in: the user's files, or another scan's
+    /// results.
+    #[error("{}: not written: {why}", out.display())]
+    NotThisScansFolder {
+        /// The output folder.
+        out: PathBuf,
+        /// Whose it is, and what to do.
+        why: String,
+    },
 }

@@ -9,6 +9,19 @@ fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
 }
 
+fn stdout(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Every file under `dir`, in its subfolders too.
+fn walk(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap().flatten() {
+        if e.path().is_dir() { out.extend(walk(&e.path())) } else { out.push(e.path()) }
+    }
+    out
+}
+
 /// Every file under `dir`, with its bytes.
 fn contents(dir: &Path) -> Vec<(std::path::PathBuf, Vec<u8>)> {
     let mut out: Vec<_> = std::fs::read_dir(dir)
@@ -344,4 +357,59 @@ fn view_keeps_a_users_file_of_its_default_name() {
         assert!(o.status.success(), "{}", stderr(&o));
     }
     assert!(std::fs::read_to_string(p("m.view.html")).unwrap().contains("scanrig"));
+}
+
+/// Found by a hostile user's probe (2026-12-07): `process` wrote into any folder given to --out,
+/// replacing a user's own `merged.ply` and `report.html` there, and a laser scan's run into a
+/// structured-light scan's results replaced them and left the two scans' files mixed, exit 0 both.
+/// A folder that is not the scan's is now refused before anything is written; a copy of the scan
+/// with its results goes on in them.
+#[test]
+fn process_writes_only_in_a_folder_of_its_scan() {
+    let d = tempfile::tempdir().unwrap();
+    let p = |n: &str| d.path().join(n);
+    let sim = |out: &str, config: &str| {
+        let args: [&dyn AsRef<std::ffi::OsStr>; 10] = [
+            &"sim",
+            &"--config",
+            &config,
+            &"--views",
+            &"2",
+            &"--resolution",
+            &"160x128",
+            &"--no-truth",
+            &"--out",
+            &p(out),
+        ];
+        let o = scanrig(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    sim("light", "structured-light");
+    sim("laser", "laser");
+    let mine = p("mine");
+    std::fs::create_dir(&mine).unwrap();
+    std::fs::write(mine.join("merged.ply"), b"my own").unwrap();
+    let before = contents(&mine);
+    let o = scanrig(&[&"process", &p("light"), &"-o", &mine, &"--until", &"merge", &"-q"]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("scanrig did not make") && err.contains("merged.ply"), "{err}");
+    assert_eq!(contents(&mine), before, "the user's folder changed");
+    let ok = |o: std::process::Output| assert!(o.status.success(), "{}", stderr(&o));
+    ok(scanrig(&[&"process", &p("light"), &"--until", &"merge", &"-q"]));
+    let theirs = p("light/processed");
+    let before = contents(&theirs);
+    let o = scanrig(&[&"process", &p("laser"), &"-o", &theirs, &"--until", &"merge", &"-q"]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("the results of another scan"), "{err}");
+    assert_eq!(contents(&theirs), before, "the other scan's results changed");
+    // The scan copied with its results is the same scan: it goes on in them, reusing every view.
+    let copy = p("copy");
+    std::fs::create_dir(&copy).unwrap();
+    for e in walk(&p("light")) {
+        let to = copy.join(e.strip_prefix(p("light")).unwrap());
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(&e, &to).unwrap();
+    }
+    let o = scanrig(&[&"process", &copy, &"--until", &"merge"]);
+    assert!(o.status.success() && stdout(&o).contains("2 reused"), "{}{}", stdout(&o), stderr(&o));
 }

@@ -182,6 +182,36 @@ pub struct Record {
 struct RecordsFile {
     format: u32,
     outputs: BTreeMap<String, Record>,
+    /// The scan the outputs are of (absent in records from before it was kept).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    scan: Option<ScanMark>,
+}
+
+/// Which scan an output folder holds the results of, kept in its records so that `process` of
+/// another scan into the folder is refused rather than replacing them.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScanMark {
+    /// The scan folder (canonical where it could be made so).
+    pub folder: PathBuf,
+    /// The content hash of its first frame, which a copy or a move of the scan keeps.
+    pub first_frame: Option<Hash>,
+}
+
+impl ScanMark {
+    /// The mark of the scan in `folder` whose first frame (of any view) is `first_frame`, relative
+    /// to it.
+    pub fn of(folder: &Path, first_frame: Option<&str>) -> ScanMark {
+        ScanMark {
+            folder: std::fs::canonicalize(folder).unwrap_or_else(|_| folder.to_path_buf()),
+            first_frame: first_frame.and_then(|f| Hash::of_file(&folder.join(f))),
+        }
+    }
+
+    /// Whether `other` marks the same scan: the same folder, or the same first frame (the scan
+    /// copied or moved).
+    pub fn same_scan(&self, other: &ScanMark) -> bool {
+        self.folder == other.folder || (self.first_frame.is_some() && self.first_frame == other.first_frame)
+    }
 }
 
 /// The outcome of asking whether an output can be reused.
@@ -257,7 +287,7 @@ impl Records {
             .ok()
             .and_then(|b| serde_json::from_slice::<RecordsFile>(&b).ok())
             .filter(|f| f.format == RECORDS_FORMAT)
-            .unwrap_or(RecordsFile { format: RECORDS_FORMAT, outputs: BTreeMap::new() });
+            .unwrap_or(RecordsFile { format: RECORDS_FORMAT, outputs: BTreeMap::new(), scan: None });
         Records { path, out: out.to_path_buf(), file, redo }
     }
 
@@ -280,6 +310,16 @@ impl Records {
     /// Notes that `name` was written with content hash `hash`, by `fingerprint`, reporting `report`.
     pub fn insert(&mut self, name: &str, fingerprint: Fingerprint, hash: Hash, report: Value) {
         self.file.outputs.insert(name.to_string(), Record { fingerprint, hash, report });
+    }
+
+    /// The scan these records are of, where they say.
+    pub fn scan(&self) -> Option<&ScanMark> {
+        self.file.scan.as_ref()
+    }
+
+    /// Marks these records as of the scan `mark`.
+    pub fn set_scan(&mut self, mark: ScanMark) {
+        self.file.scan = Some(mark);
     }
 
     /// Forgets `name` (an output that is about to be rewritten, or no longer made).

@@ -2,7 +2,7 @@
 
 use super::layout::{self, Layout};
 use super::out::Out;
-use super::records::Records;
+use super::records::{Records, ScanMark};
 use super::report::{LaserViewReport, ProcessReport, REPORT_SCHEMA_VERSION};
 use super::scan_steps::{ScanCx, close_step, fuse_step, merge_step, mesh_step, register_step, remesh_step};
 use super::stages;
@@ -23,6 +23,42 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 use std::time::Instant;
+
+/// Refuses an output folder that is not the scan's (`mark`) to write in, before anything is
+/// written: one holding files but no records of scanrig's (a user's folder given to --out, whose
+/// merged.ply and report.html a run had replaced), or records of another scan (a laser scan's run
+/// into a structured-light scan's folder had replaced its results and left the two mixed). A new or
+/// empty folder, or one of this scan's (the same folder, or its copy), is the scan's.
+fn claim(out: &Path, mark: &ScanMark) -> Result<(), Error> {
+    let refuse = |why: String| Err(Error::NotThisScansFolder { out: out.to_path_buf(), why });
+    if out.join(super::records::RECORDS_NAME).exists() {
+        return match Records::open(out, false).scan() {
+            Some(theirs) if !theirs.same_scan(mark) => refuse(format!(
+                "it holds the results of another scan ({}), which process would replace and leave mixed with this \
+                 one's; give --out a folder of this scan's own (the default is SCAN/processed), or remove that one",
+                theirs.folder.display()
+            )),
+            _ => Ok(()),
+        };
+    }
+    let Ok(entries) = std::fs::read_dir(out) else { return Ok(()) };
+    let mut found: Vec<String> = entries
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n != rig::folder_lock::LOCK_NAME)
+        .collect();
+    if found.is_empty() {
+        return Ok(());
+    }
+    found.sort();
+    let more = if found.len() > 3 { format!(" and {} more", found.len() - 3) } else { String::new() };
+    refuse(format!(
+        "it holds files scanrig did not make for a scan ({}{more}) and no {}; process would replace any of the \
+         same name. Give --out a new or empty folder",
+        found.iter().take(3).cloned().collect::<Vec<_>>().join(", "),
+        super::records::RECORDS_NAME
+    ))
+}
 
 /// Runs the stages on the scan folder `scan`, writing into `out`; `progress(stage, done, total)`.
 /// The pipeline's table of contents: the views' steps (`pipeline/view_steps.rs`), what they said,
@@ -55,12 +91,19 @@ fn process_scan_dyn(
     if manifest.method == Method::Board {
         return Err(Error::BoardCapture { scan: scan.to_path_buf() });
     }
+    let mark = ScanMark::of(scan, manifest.views.iter().flat_map(|v| &v.frames).next().map(|f| f.file.as_str()));
+    claim(out, &mark)?;
     let layout = Layout::new(out);
     layout.create()?;
     let lock = Lock::acquire(out)?;
+    let mut records = Records::open(out, params.redo);
+    // The folder is claimed before any output is written: a run cut short leaves records saying
+    // whose it is, and the next run goes on.
+    records.set_scan(mark);
+    records.save()?;
     let o = Out {
         layout,
-        records: Arc::new(Mutex::new(Records::open(out, params.redo))),
+        records: Arc::new(Mutex::new(records)),
         pending: Mutex::new(Vec::new()),
         opts: WriteOptions::default().with_units("mm"),
         turntable: rig.turntable.is_some(),
