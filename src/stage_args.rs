@@ -221,9 +221,10 @@ pub struct ReconstructOpts {
     /// closed it with.
     #[arg(long, value_enum)]
     pub base: Option<BaseArg>,
-    /// Remove surface farther than this from every point of the cloud (its units, mm): the parts the
-    /// reconstruction made up where no sensor looked. The mesh stays manifold; off by default.
-    #[arg(long, value_name = "MM")]
+    /// Remove surface farther than this from every point of the cloud (in the cloud's units: mm for
+    /// a scan's): the parts the reconstruction made up where no sensor looked. The mesh stays
+    /// manifold; off by default.
+    #[arg(long, value_name = "DISTANCE")]
     pub trim: Option<f64>,
     /// With --trim: close each hole it leaves by a fan from its centre, so the mesh stays closed.
     #[arg(long, requires = "trim")]

@@ -313,6 +313,12 @@ fn metres_and_far_coordinates_come_out_where_they_were() {
     let (lo, hi) = radius(&rig::read_cloud(&p("m_obj.e57")).unwrap().positions);
     assert!(lo > 29.99 && hi < 30.01, "m.obj → E57: radius {lo}–{hi} mm");
     ok(&scanrig(&[&"reconstruct", &p("m.ply"), &"-o", &p("m.stl"), &"--base", &"closed", &"-q"]));
+    // A trim given in millimetres to a cloud in metres (a second probe) trimmed nothing, exit 0:
+    // past half the cloud's size it is refused, saying the cloud's units.
+    let o = scanrig(&[&"reconstruct", &p("m.ply"), &"-o", &p("t.ply"), &"--base", &"closed", &"--trim", &"2"]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("--trim 2 is more than half the cloud's size"), "{err}");
+    assert!(!p("t.ply").exists());
     let (lo, hi) = radius(&rig::read_mesh(&p("m.stl")).unwrap().vertices);
     assert!(lo > 29.0 && hi < 31.0, "STL: radius {lo}–{hi} mm");
     // A unit scanrig cannot convert: refused for E57, named; PLY keeps the file's own numbers.

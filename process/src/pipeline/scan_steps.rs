@@ -419,7 +419,8 @@ pub(super) fn remesh_step(
         .map_err(|source| Error::Stage { stage: Stage::Remesh, source })?;
         // Checked before it is written: an unforced implausible remesh leaves no quads.
         warnings = check(&rr)?;
-        let hash = o.put(layout::QUADS, &rig::obj::mesh_to_bytes(&quads, None), fp, &rr)?;
+        // In millimetres, said as `scanrig remesh` says its input's unit: the same bytes.
+        let hash = o.put(layout::QUADS, &rig::obj::mesh_to_bytes(&quads, o.opts.units()), fp, &rr)?;
         Ok((quads, hash, rr))
     })?;
     // Reused, it is checked again from its record: quads a forced run kept are not passed on in

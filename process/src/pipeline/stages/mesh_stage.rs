@@ -274,6 +274,16 @@ pub fn finish(
         }
     }
     if let Some(t) = params.trim {
+        // A distance past half the cloud's size removes nothing: a figure in another unit (2 for
+        // 2 mm, on a cloud in metres, had trimmed nothing with exit 0).
+        if let Some(size) = rig::Aabb::of(samples).map(|b| b.diagonal()).filter(|&size| t > 0.5 * size) {
+            return Err(StageError::Implausible {
+                what: format!("--trim {t} is more than half the cloud's size ({size:.4} across, in its units)"),
+                hint: "it would remove nothing; give the distance in the cloud's units (a PLY saying `comment units \
+                       m` is in metres: 2 mm is 0.002)"
+                    .into(),
+            });
+        }
         // The base (cap and skirt) is where the object stood: kept by definition, not by samples.
         let base = report.base.filter(|r| r.outline_edges > 0).map(|r| r.z + r.skirt);
         let faces_before = mesh.faces.len();

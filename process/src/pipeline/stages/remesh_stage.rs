@@ -158,8 +158,8 @@ pub fn check_remesh(report: &RemeshReport, force: bool) -> Result<Vec<String>, S
 /// their midpoints, and the report's edges are counted as readers triangulate the faces; 5: parts of
 /// the mesh that meet only at a vertex keep their own line graphs and boundary loops; 6: so do parts
 /// that meet along edges of three or more faces; 7: each such face has its own boundary line along
-/// that edge.)
-pub const REMESH: StageCode = StageCode { stage: "remesh", version: 7 };
+/// that edge; 8: quads.obj says its unit, millimetres, as `scanrig remesh` writes it.)
+pub const REMESH: StageCode = StageCode { stage: "remesh", version: 8 };
 
 /// What the quad mesh is made from besides its triangle mesh: the remeshing parameters.
 pub fn remesh_fingerprint(params: &RemeshParams) -> Fingerprint {
