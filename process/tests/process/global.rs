@@ -33,21 +33,26 @@ fn bunny_pairs_align_from_any_pose_and_say_when_they_do_not() {
             let good = angle < 2.0 && rms < 2.0;
             eprintln!(
                 "{moving} → {fixed}: {} ({}) {angle:.2}° {rms:.2} mm; {} matches, {} agree, overlap {:.2}, rival {:.2}, \
-                 {} triples, {:.2} s",
+                 scale {:.4}, {} triples, {:.2} s",
                 if good { "right" } else { "WRONG" },
                 if a.aligned { "aligned" } else { a.why.as_str() },
                 a.matches,
                 a.inliers,
                 a.overlap,
                 a.rival_share,
+                a.scale,
                 a.iterations,
                 t0.elapsed().as_secs_f64()
             );
             if good {
                 ok += 1;
                 angles.push(angle);
-                // Real scans of one object are never mirror images of each other.
-                assert!(!a.why.contains("mirror image"), "{moving} → {fixed}: {}", a.why);
+                // Real scans of one object are never mirror images of each other, nor at two scales.
+                assert!(
+                    !a.why.contains("mirror image") && !a.why.contains("differ in scale"),
+                    "{moving} → {fixed}: {}",
+                    a.why
+                );
             } else if a.aligned {
                 wrong_but_aligned.push(format!("{moving} → {fixed}: {angle:.1}°, {rms:.1} mm"));
             }
@@ -122,4 +127,29 @@ fn a_mirror_image_is_not_called_aligned() {
     let a = align_global(&mirrored, &bunny, &params).unwrap();
     eprintln!("mirrored bun000: aligned {} ({}), overlap {:.2}, rms {:.3}", a.aligned, a.why, a.overlap, a.rms);
     assert!(!a.aligned && a.why.contains("mirror image"), "{a:?}");
+}
+
+/// Found by a hostile user's probe (2026-12-07): the bunny at 1.05 times its size (a file in another
+/// unit's fraction, a scanner calibrated apart) landed 81 % of itself and was called aligned, 4.8 mm
+/// off at its median; at 1.2 times, 37 %. Distances between matched points say the scale: 1 for the
+/// scan turned, and the copies are refused, saying so.
+#[test]
+fn a_copy_at_another_scale_is_not_called_aligned() {
+    let Some((bunny, _)) = fixtures::bunny_scan_mm("bun000") else {
+        eprintln!("SKIPPED: ../shared/data/stanford-bunny is absent");
+        return;
+    };
+    let mut rng = fixtures::Rng::new(29);
+    let start = fixtures::random_pose(&mut rng);
+    let params = GlobalParams::default();
+    for k in [1.0, 1.05, 1.2] {
+        let scaled: Vec<Point3> = bunny.iter().map(|p| start * Point3::from(p.coords * k)).collect();
+        let a = align_global(&scaled, &bunny, &params).unwrap();
+        eprintln!("bun000 × {k}: aligned {} ({}), scale {:.4}, overlap {:.2}", a.aligned, a.why, a.scale, a.overlap);
+        if k == 1.0 {
+            assert!(a.aligned && (a.scale - 1.0).abs() < 0.005, "{a:?}");
+        } else {
+            assert!(!a.aligned && a.why.contains("differ in scale"), "{k}: {a:?}");
+        }
+    }
 }
