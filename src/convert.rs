@@ -71,8 +71,31 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             eprintln!("warning: {w}");
         }
     };
+    let format = MeshFormat::of(&args.output);
+    let name = |f: Option<MeshFormat>| match f {
+        Some(MeshFormat::Stl) => "STL",
+        Some(MeshFormat::Glb) => "glTF",
+        Some(MeshFormat::E57) => "E57",
+        _ => "OBJ",
+    };
     match mesh {
         Some(m) => {
+            // What the output's format cannot hold is said, not dropped in silence.
+            let sizes = m.face_sizes();
+            if matches!(format, Some(MeshFormat::Stl | MeshFormat::Glb)) && sizes.quads + sizes.larger > 0 {
+                warnings.push(format!(
+                    "{}: its {} quads and polygons are written as triangles ({} holds triangles only)",
+                    args.output.display(),
+                    sizes.quads + sizes.larger,
+                    name(format)
+                ));
+            }
+            if format == Some(MeshFormat::Stl) && m.colors.is_some() {
+                warnings.push(format!(
+                    "{}: the vertex colours are not kept (STL has none; PLY, OBJ and glTF keep them)",
+                    args.output.display()
+                ));
+            }
             warn(&warnings);
             rig::write_mesh(&args.output, &m, &opts)?;
             if args.json {
@@ -81,7 +104,12 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
                 let json = Converted { output: &args.output, what };
                 println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
             } else {
-                println!("{}: {} vertices, {} faces", args.output.display(), m.vertices.len(), m.face_count());
+                let written =
+                    match sizes.quads + sizes.larger > 0 && matches!(format, Some(MeshFormat::Stl | MeshFormat::Glb)) {
+                        true => format!(" ({} triangles written)", m.triangulate().faces.len()),
+                        false => String::new(),
+                    };
+                println!("{}: {} vertices, {} faces{written}", args.output.display(), m.vertices.len(), m.face_count());
             }
         }
         None => {
@@ -91,6 +119,19 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             let read = rig::read_cloud_reported(&args.input)?;
             warnings = read.warnings;
             let cloud = read.value;
+            if format != Some(MeshFormat::Ply) {
+                let kept = |what: &str, has: bool| {
+                    has.then(|| {
+                        format!(
+                            "{}: {what} not kept ({} has no field for it; PLY keeps it)",
+                            args.output.display(),
+                            name(format)
+                        )
+                    })
+                };
+                warnings.extend(kept("the points' confidence (fusion's weights) is", cloud.confidence.is_some()));
+                warnings.extend(kept("which view each point came from is", cloud.view_id.is_some()));
+            }
             warn(&warnings);
             rig::write_cloud(&args.output, &cloud, &opts).with_context(|| "writing the point cloud")?;
             if args.json {

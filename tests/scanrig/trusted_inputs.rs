@@ -65,6 +65,19 @@ fn convert_prints_what_a_reader_did_not_keep() {
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     assert!(err.contains("warning:") && err.contains("m.obj") && err.contains("1 of 3 vertices"), "{err}");
+    // And what the output's format cannot hold (a hostile user's probe: said nowhere before): a
+    // cloud's confidence in E57, a quad mesh's quads in STL (and how many triangles were written).
+    let mut cloud = rig::PointCloud::from_positions((0..20).map(|k| rig::Point3::new(k as f64, 0.0, 1.0)).collect());
+    cloud.confidence = Some(vec![0.5; 20]);
+    rig::ply::write_cloud(&d.join("c.ply"), &cloud, &Default::default()).unwrap();
+    let o = scanrig(&[&"convert", &d.join("c.ply"), &d.join("c.e57")]);
+    let err = stderr(&o);
+    assert!(o.status.success() && err.contains("c.e57: the points' confidence"), "{err}");
+    std::fs::write(d.join("q.obj"), "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n").unwrap();
+    let o = scanrig(&[&"convert", &d.join("q.obj"), &d.join("q.stl")]);
+    let (err, out) = (stderr(&o), String::from_utf8_lossy(&o.stdout).into_owned());
+    assert!(o.status.success() && err.contains("its 1 quads and polygons are written as triangles"), "{err}");
+    assert!(out.contains("1 faces (2 triangles written)"), "{out}");
 }
 
 /// `convert z.ply y.ply` with z.ply a link to /dev/zero grew by 1 GB/s: refused at once.
