@@ -71,44 +71,46 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             eprintln!("warning: {w}");
         }
     };
+    // What the output's format cannot hold is said (after the write succeeds), not dropped in silence.
     let format = MeshFormat::of(&args.output);
-    let name = |f: Option<MeshFormat>| match f {
+    let name = match format {
         Some(MeshFormat::Stl) => "STL",
         Some(MeshFormat::Glb) => "glTF",
         Some(MeshFormat::E57) => "E57",
-        _ => "OBJ",
+        Some(MeshFormat::Obj) => "OBJ",
+        _ => "its format",
     };
+    let mut lost: Vec<String> = Vec::new();
     match mesh {
         Some(m) => {
-            // What the output's format cannot hold is said, not dropped in silence.
-            let sizes = m.face_sizes();
-            if matches!(format, Some(MeshFormat::Stl | MeshFormat::Glb)) && sizes.quads + sizes.larger > 0 {
-                warnings.push(format!(
-                    "{}: its {} quads and polygons are written as triangles ({} holds triangles only)",
-                    args.output.display(),
-                    sizes.quads + sizes.larger,
-                    name(format)
+            warn(&warnings);
+            let polygons = m.faces().filter(|f| f.len() > 3).count();
+            let triangles = matches!(format, Some(MeshFormat::Stl | MeshFormat::Glb)) && polygons > 0;
+            if triangles {
+                lost.push(format!(
+                    "{}: its faces of four or more corners ({polygons}) are written as triangles ({name} holds triangles only)",
+                    args.output.display()
                 ));
             }
             if format == Some(MeshFormat::Stl) && m.colors.is_some() {
-                warnings.push(format!(
+                lost.push(format!(
                     "{}: the vertex colours are not kept (STL has none; PLY, OBJ and glTF keep them)",
                     args.output.display()
                 ));
             }
-            warn(&warnings);
             rig::write_mesh(&args.output, &m, &opts)?;
+            warn(&lost);
+            warnings.extend(lost);
             if args.json {
                 let what =
                     ConvertedKind::Mesh { vertices: m.vertices.len(), faces: m.face_count(), warnings: &warnings };
                 let json = Converted { output: &args.output, what };
                 println!("{}", serde_json::to_string_pretty(&crate::outputs::versioned(&json))?);
             } else {
-                let written =
-                    match sizes.quads + sizes.larger > 0 && matches!(format, Some(MeshFormat::Stl | MeshFormat::Glb)) {
-                        true => format!(" ({} triangles written)", m.triangulate().faces.len()),
-                        false => String::new(),
-                    };
+                let written = match triangles {
+                    true => format!(" ({} triangles written)", m.faces().map(|f| f.len() - 2).sum::<usize>()),
+                    false => String::new(),
+                };
                 println!("{}: {} vertices, {} faces{written}", args.output.display(), m.vertices.len(), m.face_count());
             }
         }
@@ -119,21 +121,19 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             let read = rig::read_cloud_reported(&args.input)?;
             warnings = read.warnings;
             let cloud = read.value;
-            if format != Some(MeshFormat::Ply) {
-                let kept = |what: &str, has: bool| {
-                    has.then(|| {
-                        format!(
-                            "{}: {what} not kept ({} has no field for it; PLY keeps it)",
-                            args.output.display(),
-                            name(format)
-                        )
-                    })
-                };
-                warnings.extend(kept("the points' confidence (fusion's weights) is", cloud.confidence.is_some()));
-                warnings.extend(kept("which view each point came from is", cloud.view_id.is_some()));
-            }
             warn(&warnings);
+            if matches!(format, Some(MeshFormat::Obj | MeshFormat::Glb | MeshFormat::E57)) {
+                let not_kept = |what: &str| {
+                    format!("{}: {what} not kept ({name} has no field for it; PLY keeps it)", args.output.display())
+                };
+                lost.extend(
+                    cloud.confidence.is_some().then(|| not_kept("the points' confidence (fusion's weights) is")),
+                );
+                lost.extend(cloud.view_id.is_some().then(|| not_kept("which view each point came from is")));
+            }
             rig::write_cloud(&args.output, &cloud, &opts).with_context(|| "writing the point cloud")?;
+            warn(&lost);
+            warnings.extend(lost);
             if args.json {
                 let json = Converted {
                     output: &args.output,

@@ -41,7 +41,10 @@ pub fn run(args: &RemeshArgs) -> Result<()> {
     let mut at_line: Vec<usize> = Vec::new();
     if let Some(path) = &args.constraints {
         let (at, lines): (Vec<usize>, Vec<_>) = rig::remesh_inputs::read_constraints(path)?.into_iter().unzip();
-        params.lines = snap_lines(&mesh, &lines).map_err(|e| on_its_line(e.into(), path, &at))?;
+        params.lines = snap_lines(&mesh, &lines).map_err(|e| match e {
+            RemeshError::BadLine(..) => on_its_line(e.into(), path, &at),
+            e => anyhow::Error::from(e).context(path.display().to_string()),
+        })?;
         at_line = at;
     }
     if let Some(path) = &args.conductivity {

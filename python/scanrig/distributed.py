@@ -85,7 +85,7 @@ def _process_view(scan: str, view: int, force: bool) -> list[tuple[str, bytes]]:
 def _process_scan(
     scan: str, out: str, force: bool, until: Optional[str], *packs: list[tuple[str, bytes]]
 ) -> dict[str, Any]:
-    _scanrig._adopt(out, list(packs))
+    _scanrig._adopt(scan, out, list(packs))
     return _scanrig.process(scan, out, force=force, until=until)
 
 

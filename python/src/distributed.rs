@@ -49,10 +49,11 @@ fn _pack(py: Python<'_>, out: PathBuf) -> PyResult<Bound<'_, PyList>> {
     Ok(list)
 }
 
-/// Writes packs (lists of (name, bytes)) into `out` and merges their records. Returns the files written.
+/// Writes packs (lists of (name, bytes)) of the scan in `scan` into `out` and merges their
+/// records, once `out` is found to be that scan's folder. Returns the files written.
 #[pyfunction]
-fn _adopt(py: Python<'_>, out: PathBuf, packs: Vec<Vec<(String, Vec<u8>)>>) -> PyResult<usize> {
-    py.detach(|| ::process::pipeline::parts::adopt(&out, &packs)).map_err(errors::stage)
+fn _adopt(py: Python<'_>, scan: PathBuf, out: PathBuf, packs: Vec<Vec<(String, Vec<u8>)>>) -> PyResult<usize> {
+    py.detach(|| ::process::pipeline::parts::adopt(&scan, &out, &packs)).map_err(errors::stage)
 }
 
 fn grid_dict<'py>(py: Python<'py>, g: &LeafGrid) -> PyResult<Bound<'py, PyDict>> {

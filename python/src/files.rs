@@ -38,18 +38,19 @@ fn read_cloud(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
     Ok(d)
 }
 
-/// Write options for data in `units` (None: millimetres, unsaid): PLY says the unit in a
-/// `comment units`, E57, glTF and STL are written converted from it, as the commands write their
-/// inputs' units. A unit scanrig cannot convert is refused by name, whatever the format.
+/// Write options for data in `units` (None: millimetres, unsaid): PLY and OBJ say the unit in a
+/// comment, E57, glTF and STL are written converted from it, as the commands write their inputs'
+/// units (a unit scanrig cannot convert is refused for those three by the writer, by name).
 pub fn write_options(units: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<rig::ply::WriteOptions> {
     let opts = rig::ply::WriteOptions::default();
     let Some(units) = units.filter(|u| !u.is_none()) else { return Ok(opts) };
     let unit: String = units
         .extract()
         .map_err(|_| PyTypeError::new_err(format!("{name}: expected a unit's name (\"mm\", \"m\", …) or None")))?;
-    if rig::precision::millimetres_per(&unit).is_none() {
+    // A comment line holds one word: anything else would not read back as the unit.
+    if unit.is_empty() || unit.chars().any(|c| c.is_whitespace() || c.is_control()) {
         return Err(PyValueError::new_err(format!(
-            "{name}: {unit:?} is not a unit scanrig converts (mm, cm, m, um or in)"
+            "{name}: {unit:?} is not a unit's name (one word, as \"mm\" or \"m\")"
         )));
     }
     Ok(opts.with_units(&unit))

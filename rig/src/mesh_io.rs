@@ -183,9 +183,9 @@ pub fn write_cloud(path: &Path, cloud: &PointCloud, opts: &WriteOptions) -> Resu
 /// The unit of the data a file holds as scanrig reads them: a PLY's own (its `comment units`, or
 /// metres for the Stanford scans' Cyberware header), an OBJ's (`# units`, as scanrig writes it),
 /// millimetres for E57 and glTF (whose metres the readers turn into millimetres), `None` where the
-/// file says nothing (scanrig takes millimetres). A writer given it back ([`WriteOptions::with_units`])
-/// keeps the unit through every format: before OBJ said none, a cloud in metres went through it to
-/// E57 1000 times too small.
+/// file says nothing (scanrig takes millimetres). A writer given it back
+/// ([`WriteOptions::with_units`]) keeps the unit through every format: before OBJ said none, a
+/// cloud in metres went through it to E57 1000 times too small.
 pub fn data_units(path: &Path) -> Result<Option<String>, Error> {
     Ok(match MeshFormat::of(path) {
         Some(MeshFormat::Ply) => ply::read_header(path)?.units(),
@@ -202,7 +202,7 @@ fn millimetres_per_unit(path: &Path, opts: &WriteOptions, format: &str) -> Resul
     crate::precision::millimetres_per(unit).ok_or_else(|| Error::Refused {
         path: path.to_path_buf(),
         why: format!(
-            "the data's unit is {unit:?} (the input's `units` comment), which scanrig cannot convert to {format}'s \
+            "the data's unit is {unit:?}, which scanrig cannot convert to {format}'s \
              (it knows mm, cm, m, µm and inches): write .ply or .obj, which keep the data's own numbers"
         ),
     })

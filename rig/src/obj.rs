@@ -243,10 +243,8 @@ fn header(units: Option<&str>) -> Vec<u8> {
 /// The unit an OBJ file's leading comments give its data (`# units m`, as scanrig writes them), or
 /// `None`. Only the comments before the first statement are read.
 pub fn stated_units(path: &Path) -> Result<Option<String>, Error> {
-    use std::io::{BufRead, Read};
-    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let mut lines = std::io::BufReader::new(file.take(1 << 16)).lines();
-    while let Some(Ok(line)) = lines.next() {
+    let bytes = crate::run_files::read_prefix(path, 1 << 16)?;
+    for line in String::from_utf8_lossy(&bytes).lines() {
         let line = line.trim();
         let Some(comment) = line.strip_prefix('#') else {
             if line.is_empty() {
@@ -262,9 +260,9 @@ pub fn stated_units(path: &Path) -> Result<Option<String>, Error> {
     Ok(None)
 }
 
-/// A mesh as OBJ text: `v` (with colours, and `vn`, where the mesh has them), then `f` lines, triangles and quads
-/// alike, in `units` where known (a `# units` comment). Coordinates are written in shortest round-trip form, so
-/// reading gives back the same values.
+/// A mesh as OBJ text: `v` (with colours, and `vn`, where the mesh has them), then `f` lines,
+/// triangles and quads alike, in `units` where known (a `# units` comment). Coordinates are written
+/// in shortest round-trip form, so reading gives back the same values.
 pub fn mesh_to_bytes(mesh: &PolyMesh, units: Option<&str>) -> Vec<u8> {
     let mut out = header(units);
     write_vertices(&mut out, &mesh.vertices, mesh.colors.as_deref(), mesh.normals.as_deref());

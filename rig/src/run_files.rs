@@ -187,6 +187,17 @@ pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, Error> {
     Ok(bytes)
 }
 
+/// The first `max` bytes of a regular file (all of it if shorter), as [`read_bytes`] reads a whole
+/// one: a header or a leading comment without reading a cloud of gigabytes behind it.
+pub(crate) fn read_prefix(path: &Path, max: u64) -> Result<Vec<u8>, Error> {
+    use std::io::Read;
+    let (file, len) = crate::input::open_regular(path)?;
+    let mut bytes = Vec::with_capacity(len.min(max) as usize);
+    file.take(max).read_to_end(&mut bytes).map_err(|e| Error::io(path, e))?;
+    note_read(path);
+    Ok(bytes)
+}
+
 /// Writes a file atomically: into a temporary sibling of a name no user owns, then renamed over the
 /// target, so a crash never leaves a half-written file where a complete one is expected. While a run
 /// is open, a target that is one of its inputs, or inside a folder it reads, is refused

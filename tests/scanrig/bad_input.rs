@@ -250,10 +250,9 @@ fn registration_cannot_move_a_view_beyond_what_a_turntable_is_off() {
 /// Plausibility of a mesh: a cloud whose normals point in and out at random (as a laser scan's did)
 /// gives a mesh of handles and pockets facing against them; one whose normals all point inward, an
 /// inside-out mesh (AdFFT) or a surface made up far from the points (the global FFT, closing it at
-/// its grid's edge); and a good cloud with a few points far away, or a second copy of it, which widen
-/// the grid. Each is
-/// refused, saying so and naming --force, and written with the warning when forced. A consistent
-/// cloud of the same points passes without one.
+/// its grid's edge); and a good cloud with a few points far away, or a second copy of it, which
+/// widen the grid. Each is refused, saying so and naming --force, and written with the warning when
+/// forced. A consistent cloud of the same points passes without one.
 #[test]
 fn a_mesh_its_cloud_does_not_support_is_refused_unless_forced() {
     let d = fixtures::temp_dir("bad-support");
@@ -331,7 +330,7 @@ fn a_mesh_its_cloud_does_not_support_is_refused_unless_forced() {
         (d.join("inward.ply"), "fft", "the mesh lies far from its cloud", "point inward"),
         // Its mesh came out of 500-odd vertices, every one on the samples: nothing else notices.
         (d.join("stray.ply"), "adfft", "20 of the cloud's points (0.33 %) lie apart from the rest", "scanrig fuse"),
-        (d.join("two.ply"), "fft", "the cloud's points lie in 2 pieces far apart", "Give each piece alone"),
+        (d.join("two.ply"), "fft", "the cloud's points lie in parts far apart", "Give each part alone"),
     ];
     for (input, method, what, why) in cases {
         let out = d.join(format!("{method}_mesh.ply"));

@@ -280,10 +280,11 @@ fn sphere_file(path: &Path, centre: rig::Vector3, scale: f64, opts: &rig::ply::W
     rig::ply::write_cloud(path, &cloud, opts).unwrap();
 }
 
-/// Found by a hostile user's probe (2026-12-07): a cloud in metres (Stanford's scans are) went out to
-/// E57 and glTF 1000 times too small (and through OBJ, which said no unit, still so a day later), both being written as if the data were millimetres; and an
-/// object far from the origin, read in double precision, was written in single precision, where a
-/// 60 mm sphere 10⁹ mm out became two points (`reconstruct`'s mesh) with exit 0 and no warning.
+/// Found by a hostile user's probe (2026-12-07): a cloud in metres (Stanford's scans are) went out
+/// to E57 and glTF 1000 times too small (and through OBJ, which said no unit, still so a day
+/// later), both being written as if the data were millimetres; and an object far from the origin,
+/// read in double precision, was written in single precision, where a 60 mm sphere 10⁹ mm out
+/// became two points (`reconstruct`'s mesh) with exit 0 and no warning.
 #[test]
 fn metres_and_far_coordinates_come_out_where_they_were() {
     let d = tempfile::tempdir().unwrap();

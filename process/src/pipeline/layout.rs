@@ -56,6 +56,9 @@ pub const MESH_GLB: &str = "mesh.glb";
 pub const REPORT: &str = "report.json";
 
 impl Layout {
+    /// The folders of the layout, created before a run.
+    pub const FOLDERS: [&str; 4] = ["decode", "views", "denoised", "preview"];
+
     /// The layout under `root`.
     pub fn new(root: &Path) -> Self {
         Layout { root: root.to_path_buf() }
@@ -66,7 +69,7 @@ impl Layout {
     }
     /// The folders the layout uses, created before a run.
     pub fn create(&self) -> Result<(), rig::Error> {
-        for d in ["decode", "views", "denoised", "preview"] {
+        for d in Self::FOLDERS {
             let p = self.root.join(d);
             std::fs::create_dir_all(&p).map_err(|e| rig::Error::io(&p, e))?;
         }

@@ -6,7 +6,7 @@
 //! goes on to the scan stages. A task killed half-way wrote nothing outside its scratch folder, so
 //! running it again (Ray's retry) neither loses nor duplicates anything.
 
-use super::records::{RECORDS_NAME, Records};
+use super::records::{RECORDS_NAME, Records, ScanMark};
 use crate::Error;
 use rig::folder_lock::{LOCK_NAME, Lock};
 use std::path::{Component, Path};
@@ -46,12 +46,17 @@ fn relative_name(root: &Path, path: &Path) -> String {
 }
 
 /// Writes the packs' files into `out` (each atomically) and merges their records into its
-/// `stages.json`, under `out`'s lock. Returns how many files were written. A name that would leave
-/// `out` (absolute, or with `..`) is refused: a pack names files inside its folder only.
-pub fn adopt(out: &Path, packs: &[Vec<PackedFile>]) -> Result<usize, Error> {
+/// `stages.json`, under `out`'s lock, once `out` is found to be the folder of the scan in `scan`
+/// (a user's folder, or another scan's results, is refused before anything is written, as
+/// `process` refuses it). Returns how many files were written. A name that would
+/// leave `out` (absolute, or with `..`) is refused: a pack names files inside its folder only.
+pub fn adopt(scan: &Path, out: &Path, packs: &[Vec<PackedFile>]) -> Result<usize, Error> {
+    let mark = ScanMark::of_scan(scan, &rig::scan_folder::Manifest::read(scan)?);
     std::fs::create_dir_all(out).map_err(|e| rig::Error::io(out, e))?;
     let _lock = Lock::acquire(out)?;
+    super::run::claim(out, &mark)?;
     let mut records = Records::open(out, false);
+    records.set_scan(mark);
     let mut written = 0;
     for (name, bytes) in packs.iter().flatten() {
         let inside = Path::new(name).components().all(|c| matches!(c, Component::Normal(_)));

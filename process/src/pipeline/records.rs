@@ -207,6 +207,12 @@ impl ScanMark {
         }
     }
 
+    /// The mark of the scan in `folder` with the manifest `manifest`: its first frame is that of
+    /// the first view with one.
+    pub fn of_scan(folder: &Path, manifest: &rig::scan_folder::Manifest) -> ScanMark {
+        ScanMark::of(folder, manifest.views.iter().flat_map(|v| &v.frames).next().map(|f| f.file.as_str()))
+    }
+
     /// Whether `other` marks the same scan: the same folder, or the same first frame (the scan
     /// copied or moved).
     pub fn same_scan(&self, other: &ScanMark) -> bool {

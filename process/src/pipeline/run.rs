@@ -25,13 +25,16 @@ use std::sync::{Arc, Mutex, OnceLock, PoisonError};
 use std::time::Instant;
 
 /// Refuses an output folder that is not the scan's (`mark`) to write in, before anything is
-/// written: one holding files but no records of scanrig's (a user's folder given to --out, whose
-/// merged.ply and report.html a run had replaced), or records of another scan (a laser scan's run
-/// into a structured-light scan's folder had replaced its results and left the two mixed). A new or
-/// empty folder, or one of this scan's (the same folder, or its copy), is the scan's.
-fn claim(out: &Path, mark: &ScanMark) -> Result<(), Error> {
+/// written (the caller holds the folder's lock, so no other run passes the check meanwhile): one
+/// holding files but no records of scanrig's (a user's folder given to --out, whose merged.ply and
+/// report.html a run had replaced), or records of another scan (a laser scan's run into a
+/// structured-light scan's folder had replaced its results and left the two mixed). A new or empty
+/// folder (hidden files, the lock and the layout's own folders aside), one of this scan's (the same
+/// folder, or its copy), or records that say no scan (written before scans were marked) are the
+/// scan's.
+pub(crate) fn claim(out: &Path, mark: &ScanMark) -> Result<(), Error> {
     let refuse = |why: String| Err(Error::NotThisScansFolder { out: out.to_path_buf(), why });
-    if out.join(super::records::RECORDS_NAME).exists() {
+    if out.join(super::records::RECORDS_NAME).symlink_metadata().is_ok() {
         return match Records::open(out, false).scan() {
             Some(theirs) if !theirs.same_scan(mark) => refuse(format!(
                 "it holds the results of another scan ({}), which process would replace and leave mixed with this \
@@ -44,8 +47,9 @@ fn claim(out: &Path, mark: &ScanMark) -> Result<(), Error> {
     let Ok(entries) = std::fs::read_dir(out) else { return Ok(()) };
     let mut found: Vec<String> = entries
         .filter_map(|e| e.ok())
+        .filter(|e| !(e.path().is_dir() && Layout::FOLDERS.contains(&e.file_name().to_string_lossy().as_ref())))
         .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n != rig::folder_lock::LOCK_NAME)
+        .filter(|n| !n.starts_with('.'))
         .collect();
     if found.is_empty() {
         return Ok(());
@@ -54,7 +58,7 @@ fn claim(out: &Path, mark: &ScanMark) -> Result<(), Error> {
     let more = if found.len() > 3 { format!(" and {} more", found.len() - 3) } else { String::new() };
     refuse(format!(
         "it holds files scanrig did not make for a scan ({}{more}) and no {}; process would replace any of the \
-         same name. Give --out a new or empty folder",
+         same name. Give --out a new or empty folder, or remove those files",
         found.iter().take(3).cloned().collect::<Vec<_>>().join(", "),
         super::records::RECORDS_NAME
     ))
@@ -91,11 +95,12 @@ fn process_scan_dyn(
     if manifest.method == Method::Board {
         return Err(Error::BoardCapture { scan: scan.to_path_buf() });
     }
-    let mark = ScanMark::of(scan, manifest.views.iter().flat_map(|v| &v.frames).next().map(|f| f.file.as_str()));
+    std::fs::create_dir_all(out).map_err(|e| rig::Error::io(out, e))?;
+    let lock = Lock::acquire(out)?;
+    let mark = ScanMark::of_scan(scan, &manifest);
     claim(out, &mark)?;
     let layout = Layout::new(out);
     layout.create()?;
-    let lock = Lock::acquire(out)?;
     let mut records = Records::open(out, params.redo);
     // The folder is claimed before any output is written: a run cut short leaves records saying
     // whose it is, and the next run goes on.

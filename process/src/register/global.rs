@@ -460,7 +460,8 @@ fn align_described(m: &Described, f: &Described, params: &GlobalParams, floor: u
         // any way it is turned, because of it.
         format!(
             "the clouds differ in scale: distances between points matched on both are {scale:.3} times as long in the \
-             fixed cloud (a file in another unit, or scanners calibrated apart?); a rigid alignment cannot fit them"
+             fixed cloud, or further from 1 (a scanner calibrated apart, a file scaled?); a rigid alignment cannot fit \
+             them"
         )
     } else if share < params.min_overlap {
         format!("only {:.0} % of the moving cloud lands on the fixed one", 100.0 * share)
@@ -493,16 +494,18 @@ const MAX_SCALE: Real = 0.02;
 
 /// How many times longer the fixed cloud's distances are than the moving one's between the same
 /// points: the median, over pairs of the matches that agree with `pose` (within three spacings) at
-/// least ten spacings apart, of the ratio of their distances (up to 20,000 pairs, drawn alike every
-/// run). A rigid motion keeps distances, so a copy at another scale shows here where its landing
-/// hides it; 0 with fewer than 20 such pairs.
+/// least ten spacings apart, of the ratio of their distances (20,000 pairs drawn, alike every run).
+/// A rigid motion keeps distances, so a copy at another scale shows here where its landing hides
+/// it. The agreement itself bounds each ratio near 1, so the figure understates a large difference
+/// (a copy at 1.2 times reads 0.90, not 0.83); 0 with fewer than ten agreeing matches, or fewer
+/// than 20 pairs far enough apart.
 fn scale_between(pose: &Isometry3, m: &[Point3], f: &[Point3], matches: &[(usize, usize)], voxel: Real) -> Real {
     let agree: Vec<(Point3, Point3)> = matches
         .iter()
         .filter(|&&(i, j)| (pose * m[i] - f[j]).norm() < 3.0 * voxel)
         .map(|&(i, j)| (m[i], f[j]))
         .collect();
-    if agree.len() < 2 {
+    if agree.len() < 10 {
         return 0.0;
     }
     let mut draw = rig::split_mix::SplitMix(0x5ca1e);

@@ -31,7 +31,7 @@ fn views_processed_apart_and_adopted_give_the_whole_run_s_files() {
         packs.push(pack(&scratch).unwrap());
     }
     let out = scan.join("adopted");
-    let written = adopt(&out, &packs).unwrap();
+    let written = adopt(&scan, &out, &packs).unwrap();
     assert!(written >= 4 * 3, "{written} files");
     let report = process_scan(&scan, &out, &params, |_, _, _| {}).unwrap();
     assert!(report.views.iter().all(|v| v.reused), "every view reused: {:?}", report.views);
@@ -45,7 +45,7 @@ fn views_processed_apart_and_adopted_give_the_whole_run_s_files() {
     let err = process_scan(&scan, &scan.join("x"), &none, |_, _, _| {}).unwrap_err().to_string();
     assert!(err.contains("has no complete view 7 (4 views"), "{err}");
     let evil = vec![vec![("../escaped.ply".to_string(), b"ply".to_vec())]];
-    let err = adopt(&out, &evil).unwrap_err().to_string();
+    let err = adopt(&scan, &out, &evil).unwrap_err().to_string();
     assert!(err.contains("../escaped.ply") && err.contains("not a path inside"), "{err}");
     assert!(!scan.join("escaped.ply").exists());
 }

@@ -175,7 +175,7 @@ impl Header {
 
 /// The longest header we read: real headers are a few kB; this stops a file of garbage without newlines
 /// from being scanned as one giant header line.
-const MAX_HEADER_BYTES: usize = 1 << 20;
+pub(crate) const MAX_HEADER_BYTES: usize = 1 << 20;
 
 /// Parses the header; returns it and the byte offset where the body starts.
 pub(crate) fn parse_header(bytes: &[u8]) -> Result<(Header, usize), ParseError> {

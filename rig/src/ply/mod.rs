@@ -126,9 +126,11 @@ pub fn read(path: &Path) -> Result<PlyFile, Error> {
     parse(&read_bytes(path)?).map_err(|e| e.with_path(path))
 }
 
-/// Reads only a PLY file's header (fast for large files).
+/// Reads only a PLY file's header (fast for large files: it had read the whole file, and every
+/// write that keeps its input's unit reads the input's header).
 pub fn read_header(path: &Path) -> Result<Header, Error> {
-    header::parse_header(&read_bytes(path)?).map(|(h, _)| h).map_err(|e| e.with_path(path))
+    let bytes = crate::run_files::read_prefix(path, header::MAX_HEADER_BYTES as u64 + 1)?;
+    header::parse_header(&bytes).map(|(h, _)| h).map_err(|e| e.with_path(path))
 }
 
 /// Reads a PLY file's `vertex` element as a point cloud (positions, and normals, colours, confidence and

@@ -52,7 +52,10 @@ impl Apart {
         let pieces = match self.pieces {
             0 => String::new(),
             n => {
-                format!("{whose} lie in {} pieces far apart, each over {} % of them: ", n + 1, 100.0 * MAX_APART_SHARE)
+                format!(
+                    "{whose} lie in parts far apart (the widest and {n} more, each holding {} % of them or more): ",
+                    100.0 * MAX_APART_SHARE
+                )
             }
         };
         format!(
@@ -60,7 +63,7 @@ impl Apart {
              box {}-fold: {coarser}",
             self.points,
             100.0 * self.share,
-            if self.pieces > 0 { "widest piece" } else { "rest" },
+            if self.pieces > 0 { "widest part" } else { "rest" },
             three_digits(self.farthest),
             three_digits(self.widening.round())
         )
@@ -75,7 +78,7 @@ impl Apart {
                  the object, --force keeps them"
             }
             _ => {
-                "two objects, or passes of one object not aligned (`scanrig align`)? Give each piece alone; --force \
+                "two objects, or passes of one object not aligned (`scanrig align`)? Give each part alone; --force \
                  keeps them together"
             }
         }
@@ -85,8 +88,8 @@ impl Apart {
 /// The points of `positions` apart from the object: the occupied cells of a grid of [`APART_CELLS`]
 /// per side of the cloud's box, joined into pieces across faces, edges and corners; the object is
 /// the widest of the pieces holding at least [`MAX_APART_SHARE`] of the points with every such
-/// piece within its size of it, and the rest is apart. `None` when nothing is apart, or when every piece is small (a sparse cloud, which this
-/// grid cannot tell from strays).
+/// piece within its size of it, and the rest is apart. `None` when nothing is apart, or when every
+/// piece is small (a sparse cloud, which this grid cannot tell from strays).
 pub fn apart(positions: &[Point3]) -> Option<Apart> {
     let bounds = rig::Aabb::of(positions)?;
     let widest = |min: &Point3, max: &Point3| (max - min).max();
@@ -210,7 +213,8 @@ mod tests {
         let a = apart(&two).expect("the second sphere");
         assert_eq!((a.points, a.pieces), (20_000, 1), "{a:?}");
         assert!((a.widening - 5080.0 / 80.0).abs() < 0.1 && (a.farthest - 5000.0).abs() < 0.5, "{a:?}");
-        assert!(a.describe("the cloud's points", "coarser").starts_with("the cloud's points lie in 2 pieces"));
+        let said = a.describe("the cloud's points", "coarser");
+        assert!(said.starts_with("the cloud's points lie in parts far apart (the widest and 1 more"), "{said}");
         // Side by side, under a sphere's width apart (a turntable's two small objects; a laser scan's
         // lines), they are one object.
         let mut near = body.clone();

@@ -249,6 +249,22 @@ pub struct MeshReport {
 /// of the bottom edge (a cell or two), so the skirt below it is the object's wall.
 pub const SKIRT_CELLS: Real = 2.0;
 
+/// Refuses a `trim` past half the size of the cloud (`samples`), before the reconstruction: it
+/// would remove nothing, being a figure in another unit (2 for 2 mm, given for a cloud in metres,
+/// had trimmed nothing with exit 0).
+fn check_trim(trim: Option<Real>, samples: &[Point3]) -> Result<(), StageError> {
+    let size = rig::Aabb::of(samples).map_or(Real::INFINITY, |b| b.diagonal());
+    match trim.filter(|&t| t > 0.5 * size) {
+        Some(t) => Err(StageError::Implausible {
+            what: format!("--trim {t} is more than half the cloud's size ({size:.4} across, in its units)"),
+            hint: "it would remove nothing; give the distance in the cloud's units (a PLY saying `comment units m` \
+                   is in metres: 2 mm is 0.002)"
+                .into(),
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Finishes a reconstructed mesh: cuts its base at the platter plane `platter_z` (when known) as
 /// `params.base` says — at [`SKIRT_CELLS`] of `cell` above it, carried straight down —, then trims
 /// surface farther than `params.trim` from `samples` (never the flat base, which no sample need cover).
@@ -274,16 +290,6 @@ pub fn finish(
         }
     }
     if let Some(t) = params.trim {
-        // A distance past half the cloud's size removes nothing: a figure in another unit (2 for
-        // 2 mm, on a cloud in metres, had trimmed nothing with exit 0).
-        if let Some(size) = rig::Aabb::of(samples).map(|b| b.diagonal()).filter(|&size| t > 0.5 * size) {
-            return Err(StageError::Implausible {
-                what: format!("--trim {t} is more than half the cloud's size ({size:.4} across, in its units)"),
-                hint: "it would remove nothing; give the distance in the cloud's units (a PLY saying `comment units \
-                       m` is in metres: 2 mm is 0.002)"
-                    .into(),
-            });
-        }
         // The base (cap and skirt) is where the object stood: kept by definition, not by samples.
         let base = report.base.filter(|r| r.outline_edges > 0).map(|r| r.z + r.skirt);
         let faces_before = mesh.faces.len();
@@ -483,7 +489,7 @@ fn spacing(positions: &[Point3], tree: &PointTree) -> Real {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Finding {
     /// The cloud holds points apart from the object that widen the grid ([`Apart`]): a few strays,
-    /// or another piece as large.
+    /// or another part holding 1 % of them or more.
     Apart,
     /// The mesh's faces turn inward ([`Support::volume`]).
     InsideOut,
@@ -779,6 +785,7 @@ fn mesh_of(input: rig::CloudRef<'_>, params: &MeshParams, steps: &AtomicUsize) -
     // no stage can use is refused first, by what is wrong with it (the reconstruction checks it
     // again: a pass over the points, a millisecond on the ten bunny scans).
     check_cloud(input)?;
+    check_trim(params.finish.trim, input.positions)?;
     let apart = apart(input.positions);
     if !params.force {
         judge_support(&Support { apart, ..Support::unmeasured() }, false)?;

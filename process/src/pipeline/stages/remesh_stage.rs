@@ -9,8 +9,9 @@ use serde_json::json;
 
 /// Refuses to remesh a mesh whose vertices include a few far from the rest, or another piece far
 /// from the widest ([`super::apart()`]), unless `force`, else the warning to give: the quads'
-/// default spacing follows the mesh's size, so a stray vertex makes them that much coarser (one 10³⁰ mm out, an exporter's garbage, was
-/// refused only after the remesh, as quads straying 10²⁹ mm from the input).
+/// default spacing follows the mesh's size, so a stray vertex makes them that much coarser (one
+/// 10³⁰ mm out, an exporter's garbage, was refused only after the remesh, as quads straying 10²⁹ mm
+/// from the input).
 pub fn check_remesh_input(mesh: &TriMesh, force: bool) -> Result<Vec<String>, StageError> {
     let Some(a) = super::apart(&mesh.vertices).filter(|a| a.widening > super::MAX_WIDENING) else {
         return Ok(Vec::new());
