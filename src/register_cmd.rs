@@ -9,6 +9,10 @@ pub fn run(args: &RegisterArgs) -> Result<()> {
     let processed = args.processed.clone().unwrap_or_else(|| args.scan.join("processed"));
     let out = args.out.clone().unwrap_or_else(|| processed.join(process::pipeline::layout::REGISTERED));
     let poses_path = out.with_extension("poses.json");
+    // The scan is read and its captures never written among, as `process` guards them (an output
+    // named into the frames' folder had been written there).
+    let folder = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    crate::process_cmd::guard_folders(&args.scan, folder)?;
     let crop = args.crop.params()?;
     let params = args.register.params()?;
     crate::progress::note(format!("registering the views of {} …", processed.display()));

@@ -409,6 +409,13 @@ fn process_writes_only_in_a_folder_of_its_scan() {
     let err = stderr(&o);
     assert!(!o.status.success() && err.contains("the results of another scan"), "{err}");
     assert_eq!(contents(&theirs), before, "the other scan's results changed");
+    // `register` of the scan into its frames' folder (the probe's): refused as `process` refuses it.
+    let frames = p("light/frames");
+    let before = walk(&frames);
+    let o = scanrig(&[&"register", &p("light"), &"-o", &frames.join("x.ply")]);
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("would mix the results with the captures"), "{err}");
+    assert_eq!(walk(&frames), before);
     // The scan copied with its results is the same scan: it goes on in them, reusing every view.
     let copy = p("copy");
     std::fs::create_dir(&copy).unwrap();
