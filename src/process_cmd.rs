@@ -73,20 +73,28 @@ pub fn run_pipeline_watched(
 /// folder, holds it, or lies among its frames, then declares both to the run (`rig::run_files`), so
 /// no stage can write over a capture.
 pub fn guard_folders(scan: &Path, out: &Path) -> Result<()> {
+    guard(scan, out, "--out", false)
+}
+
+/// [`guard_folders`] for an output file's `folder` (`option` names it): a folder holding the scan
+/// may take one file (`scanrig register -o`), never the scan folder itself or its frames' folder
+/// (a registered cloud had been written among the frames); `holding_ok` says which.
+pub fn guard(scan: &Path, folder: &Path, option: &str, holding_ok: bool) -> Result<()> {
     let scan_c = scan.canonicalize().with_context(|| format!("reading the scan folder {}", scan.display()))?;
     // The nearest folder that exists, made canonical, with the rest of the path after it.
-    let out_c = out.ancestors().find_map(|a| Some(a.canonicalize().ok()?.join(out.strip_prefix(a).ok()?)));
+    let out_c = folder.ancestors().find_map(|a| Some(a.canonicalize().ok()?.join(folder.strip_prefix(a).ok()?)));
     let among_frames = out_c.as_ref().is_some_and(|o| o.starts_with(scan_c.join("frames")));
-    if out_c.as_ref().is_some_and(|o| scan_c.starts_with(o)) || among_frames {
+    let holds = out_c.as_ref().is_some_and(|o| if holding_ok { *o == scan_c } else { scan_c.starts_with(o) });
+    if holds || among_frames {
         anyhow::bail!(
-            "--out {} would mix the results with the captures of {}: give a folder of its own (the default is {})",
-            out.display(),
+            "{option} {} would mix the results with the captures of {}: give a folder of its own (the default is {})",
+            folder.display(),
             scan.display(),
             scan.join("processed").display()
         );
     }
     rig::run_files::input_folder(scan);
-    rig::run_files::workspace(out)?;
+    rig::run_files::workspace(folder)?;
     Ok(())
 }
 

@@ -12,7 +12,7 @@ pub fn run(args: &RegisterArgs) -> Result<()> {
     // The scan is read and its captures never written among, as `process` guards them (an output
     // named into the frames' folder had been written there).
     let folder = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
-    crate::process_cmd::guard_folders(&args.scan, folder)?;
+    crate::process_cmd::guard(&args.scan, folder, "-o", true)?;
     let crop = args.crop.params()?;
     let params = args.register.params()?;
     crate::progress::note(format!("registering the views of {} …", processed.display()));
