@@ -198,19 +198,14 @@ pub struct ScanMark {
 }
 
 impl ScanMark {
-    /// The mark of the scan in `folder` whose first frame (of any view) is `first_frame`, relative
-    /// to it.
-    pub fn of(folder: &Path, first_frame: Option<&str>) -> ScanMark {
-        ScanMark {
-            folder: std::fs::canonicalize(folder).unwrap_or_else(|_| folder.to_path_buf()),
-            first_frame: first_frame.and_then(|f| Hash::of_file(&folder.join(f))),
-        }
-    }
-
     /// The mark of the scan in `folder` with the manifest `manifest`: its first frame is that of
     /// the first view with one.
     pub fn of_scan(folder: &Path, manifest: &rig::scan_folder::Manifest) -> ScanMark {
-        ScanMark::of(folder, manifest.views.iter().flat_map(|v| &v.frames).next().map(|f| f.file.as_str()))
+        let first = manifest.views.iter().flat_map(|v| &v.frames).next();
+        ScanMark {
+            folder: std::fs::canonicalize(folder).unwrap_or_else(|_| folder.to_path_buf()),
+            first_frame: first.and_then(|f| Hash::of_file(&folder.join(&f.file))),
+        }
     }
 
     /// Whether `other` marks the same scan: the same folder, or the same first frame (the scan
