@@ -397,6 +397,11 @@ fn denoise_smooths_range_grids_singly_and_as_a_sequence() {
     assert!(stderr(&o).contains("--window must be an odd size of at least 3"), "{}", stderr(&o));
     let o = scanrig(&[&"denoise", &inputs[0], &"--bandwidth", &"2", &"-o", &out]);
     assert!(stderr(&o).contains("expected D,S"), "{}", stderr(&o));
+    // Bandwidths in the wrong unit (metres on a grid in mm) had moved nothing, exit 0 without a word.
+    let o = scanrig(&[&"denoise", &inputs[0], &"--bandwidth", &"1e-9,1e-9", &"-o", &d.path("m.ply")]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("bandwidth d = 1.000e-9") && e.contains("give at least"), "{e}");
+    assert!(!d.path("m.ply").exists());
     // A lone cell (its 8 neighbours cut out) is dropped unless asked to keep it; bandwidths by hand.
     let mut lone = noisy_plane(1);
     let centre = 20 * 60 + 30;

@@ -237,6 +237,28 @@ fn check(grid: &RangeGrid) -> Result<(), DenoiseError> {
     if v < 16 { Err(DenoiseError::TooFewPoints(v)) } else { Ok(()) }
 }
 
+/// A hand bandwidth below this fraction of section 4.3.2's automatic one over 3 × 3 cells (d about
+/// one cell's spacing, s the noise of a cell against its plane) weighs even the nearest neighbour
+/// at most about e^-14 of the point itself: the filter would return the grid unchanged, which a
+/// bandwidth in the wrong unit (metres on a grid in mm) gives.
+const LEAST_BANDWIDTH_SHARE: Real = 0.25;
+
+/// Refuses bandwidths given by hand that would move nothing on `grid`, measured against section
+/// 4.3.2's automatic ones over the nearest cells (3 × 3, whatever the neighbourhood: a wider one
+/// would raise d with its reach, not with the spacing).
+fn check_bandwidth(grid: &RangeGrid, params: &DenoiseParams) -> Result<(), DenoiseError> {
+    let Some((d, s)) = params.bandwidth else { return Ok(()) };
+    let dir = |i| direction_at(grid, params.direction, params.normal_window, i);
+    let (own_d, own_s) = estimate(grid, dir, 1, BANDWIDTH_SAMPLES, params.seed);
+    for (which, given, own) in [("d", d, own_d), ("s", s, own_s)] {
+        let least = LEAST_BANDWIDTH_SHARE * own;
+        if given < least {
+            return Err(DenoiseError::BandwidthTooSmall { which, given, own, least });
+        }
+    }
+    Ok(())
+}
+
 /// Denoises one range grid (eq. 4.3). Returns the filtered grid (normals re-estimated if the input had
 /// them) and what was done.
 pub fn denoise(grid: &RangeGrid, params: &DenoiseParams) -> Result<(RangeGrid, DenoiseReport), DenoiseError> {
@@ -320,6 +342,7 @@ pub fn denoise_sequence(
     let sized = level.map(|level| params.sized_for(&level));
     let s_from_noise = sized.and_then(|(_, s)| s);
     let params = &sized.map_or(*params, |(p, _)| p);
+    check_bandwidth(&out, params)?;
     let mut report = DenoiseReport {
         points: out.valid_count(),
         isolated_dropped,
@@ -540,5 +563,29 @@ mod tests {
         eprintln!("low noise: moved up to {moved:.2e}, fast vs direct {worst:.2e}");
         assert!(moved > 5e-4, "the filter moves points ({moved})");
         assert!(worst < 0.02 * moved, "off by {worst} where points move {moved}");
+    }
+
+    /// A bandwidth in the wrong unit (metres on a grid in mm) would weigh no neighbour and return the
+    /// grid unchanged: refused, naming which bandwidth and the least that moves anything.
+    #[test]
+    fn bandwidths_that_would_move_nothing_are_refused() {
+        let grid = frame(4, 0.0);
+        let by_hand = |d, s| DenoiseParams { bandwidth: Some((d, s)), ..DenoiseParams::thesis() };
+        for (d, s, which) in [(1e-9, 1e-9, "d"), (0.1, 0.1, "d"), (1.4, 1e-4, "s")] {
+            match denoise(&grid, &by_hand(d, s)) {
+                Err(DenoiseError::BandwidthTooSmall { which: w, own, least, .. }) => {
+                    assert_eq!(w, which, "({d}, {s})");
+                    assert!((least - 0.25 * own).abs() < 1e-12 && own > 0.0, "{own} {least}");
+                }
+                other => panic!("({d}, {s}): expected a refusal of {which}, got {other:?}"),
+            }
+        }
+        // The grid's own bandwidths, d under one cell's spacing (0.5) with the 7 × 7 window, and far
+        // larger ones (the similarity switched off) still filter.
+        let (_, own) = denoise(&grid, &DenoiseParams::thesis()).unwrap();
+        for (d, s) in [(own.d[0], own.s[0]), (0.4, own.s[0]), (1e3, 1e3)] {
+            let (_, report) = denoise(&grid, &by_hand(d, s)).unwrap();
+            assert!(report.rms_displacement[0] > 0.01, "({d}, {s}) moves points: {:?}", report.rms_displacement);
+        }
     }
 }

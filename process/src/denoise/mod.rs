@@ -198,8 +198,8 @@ pub struct DenoiseReport {
     pub iterations: usize,
 }
 
-/// A grid the filter cannot work on.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+/// A grid the filter cannot work on, or bandwidths it cannot use on it.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum DenoiseError {
     /// Too few valid points to estimate anything.
@@ -222,4 +222,20 @@ pub enum DenoiseError {
     /// The current frame index is not in the sequence.
     #[error("frame {0} is not in the sequence")]
     NoSuchFrame(usize),
+    /// A bandwidth given by hand so small against this grid that every neighbour's weight vanishes
+    /// and the filter would move nothing (most often a value in the wrong unit).
+    #[error(
+        "bandwidth {which} = {given:.3e} is under a quarter of this grid's own {which} ({own:.3e}, in the \
+         grid's units): no neighbour would weigh anything and nothing would move; give at least {least:.3e}"
+    )]
+    BandwidthTooSmall {
+        /// "d" (distance) or "s" (similarity).
+        which: &'static str,
+        /// The value given.
+        given: Real,
+        /// The automatic value of section 4.3.2 on this grid.
+        own: Real,
+        /// The smallest value accepted.
+        least: Real,
+    },
 }
