@@ -51,7 +51,7 @@ pub fn run(args: &AlignArgs) -> Result<()> {
         if let Some(n) = moved.normals.as_mut() {
             n.iter_mut().for_each(|n| *n = a.pose.rotation * *n);
         }
-        rig::write_cloud(out, &moved, &crate::outputs::write_options_like(&args.fixed)?)?;
+        crate::outputs::write_cloud(out, &moved, &crate::outputs::write_options_like(&args.fixed)?)?;
     }
     let pose = rig::math::rows_of(&a.pose);
     let json = Aligned { moving: &args.moving, fixed: &args.fixed, pose, voxel: params.voxel, alignment: &a };

@@ -73,31 +73,11 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
     };
     // What the output's format cannot hold is said (after the write succeeds), not dropped in silence.
     let format = MeshFormat::of(&args.output);
-    let name = match format {
-        Some(MeshFormat::Stl) => "STL",
-        Some(MeshFormat::Glb) => "glTF",
-        Some(MeshFormat::E57) => "E57",
-        Some(MeshFormat::Obj) => "OBJ",
-        _ => "its format",
-    };
-    let mut lost: Vec<String> = Vec::new();
     match mesh {
         Some(m) => {
             warn(&warnings);
-            let polygons = m.faces().filter(|f| f.len() > 3).count();
-            let triangles = matches!(format, Some(MeshFormat::Stl | MeshFormat::Glb)) && polygons > 0;
-            if triangles {
-                lost.push(format!(
-                    "{}: its faces of four or more corners ({polygons}) are written as triangles ({name} holds triangles only)",
-                    args.output.display()
-                ));
-            }
-            if format == Some(MeshFormat::Stl) && m.colors.is_some() {
-                lost.push(format!(
-                    "{}: the vertex colours are not kept (STL has none; PLY, OBJ and glTF keep them)",
-                    args.output.display()
-                ));
-            }
+            let triangles = matches!(format, Some(MeshFormat::Stl | MeshFormat::Glb)) && m.faces().any(|f| f.len() > 3);
+            let lost = rig::mesh_losses(&args.output, &m);
             rig::write_mesh(&args.output, &m, &opts)?;
             warn(&lost);
             warnings.extend(lost);
@@ -122,15 +102,7 @@ pub fn run(args: &ConvertArgs) -> Result<()> {
             warnings = read.warnings;
             let cloud = read.value;
             warn(&warnings);
-            if matches!(format, Some(MeshFormat::Obj | MeshFormat::Glb | MeshFormat::E57)) {
-                let not_kept = |what: &str| {
-                    format!("{}: {what} not kept ({name} has no field for it; PLY keeps it)", args.output.display())
-                };
-                lost.extend(
-                    cloud.confidence.is_some().then(|| not_kept("the points' confidence (fusion's weights) is")),
-                );
-                lost.extend(cloud.view_id.is_some().then(|| not_kept("which view each point came from is")));
-            }
+            let lost = rig::cloud_losses(&args.output, &cloud);
             rig::write_cloud(&args.output, &cloud, &opts).with_context(|| "writing the point cloud")?;
             warn(&lost);
             warnings.extend(lost);

@@ -24,7 +24,7 @@ pub fn run(args: &FuseArgs) -> Result<()> {
     )
     .with_context(|| format!("fusing {}", args.input.display()))?;
     progress.finish();
-    rig::write_cloud(&args.out, &fused.cloud, &opts)?;
+    crate::outputs::write_cloud(&args.out, &fused.cloud, &opts)?;
     if let Some(path) = &args.outliers {
         rig::write_cloud(path, &fused.outliers(&cloud), &opts)?;
     }

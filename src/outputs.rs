@@ -79,6 +79,26 @@ fn same_file(a: &Path, b: &Path) -> bool {
         || matches!((inode(a), inode(b)), (Some(x), Some(y)) if x == y)
 }
 
+/// [`rig::write_cloud`] of a user's output, then a warning for each thing its format cannot hold
+/// ([`rig::cloud_losses`]: confidence and views in OBJ, glTF, E57).
+pub fn write_cloud(path: &Path, cloud: &rig::PointCloud, opts: &rig::ply::WriteOptions) -> Result<()> {
+    rig::write_cloud(path, cloud, opts)?;
+    for w in rig::cloud_losses(path, cloud) {
+        eprintln!("warning: {w}");
+    }
+    Ok(())
+}
+
+/// [`rig::write_mesh`] of a user's output, then a warning for each thing its format cannot hold
+/// ([`rig::mesh_losses`]: quads in STL and glTF, colours in STL).
+pub fn write_mesh(path: &Path, mesh: &rig::PolyMesh, opts: &rig::ply::WriteOptions) -> Result<()> {
+    rig::write_mesh(path, mesh, opts)?;
+    for w in rig::mesh_losses(path, mesh) {
+        eprintln!("warning: {w}");
+    }
+    Ok(())
+}
+
 /// Write options that keep the input's units (a PLY `comment units …`).
 pub fn write_options_like(input: &Path) -> Result<rig::ply::WriteOptions> {
     let mut opts = rig::ply::WriteOptions::default();

@@ -84,7 +84,7 @@ pub fn run(args: &ReconstructArgs) -> Result<()> {
         eprintln!("warning: {}: {w}", args.out.display());
     }
     let seconds = start.elapsed().as_secs_f64();
-    rig::write_mesh(&args.out, &made.output, &opts)?;
+    crate::outputs::write_mesh(&args.out, &made.output, &opts)?;
     let t = topology(mesh);
     let peak = rig::memory::peak_resident_bytes();
     let mut o = std::io::stdout().lock();

@@ -28,7 +28,7 @@ pub fn run(args: &RegisterArgs) -> Result<()> {
     // In the turntable's object frame, as `process` writes it: the header says so.
     let mut opts = rig::ply::WriteOptions::default().with_units("mm");
     opts.comments.push(rig::ply::TURNTABLE_FRAME.into());
-    rig::write_cloud(&out, &cloud, &opts)?;
+    crate::outputs::write_cloud(&out, &cloud, &opts)?;
     rig::write_atomic(&poses_path, &process::pipeline::stages::poses_json(&poses))?;
     let mut o = std::io::stdout().lock();
     if args.json {

@@ -67,7 +67,7 @@ pub fn run(args: &RemeshArgs) -> Result<()> {
     // Checked before anything is written: an unforced implausible remesh leaves no file.
     warnings.extend(stages::check_remesh(&report, args.force).with_context(context)?);
     // In the input's units, as every stage command writes (E57, glTF and STL are converted from them).
-    rig::write_mesh(&args.out, &quads, &crate::outputs::write_options_like(&args.input)?)?;
+    crate::outputs::write_mesh(&args.out, &quads, &crate::outputs::write_options_like(&args.input)?)?;
     for w in &warnings {
         eprintln!("warning: {}: {w}", args.out.display());
     }

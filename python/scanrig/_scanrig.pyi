@@ -30,7 +30,8 @@ def write_cloud(
     units: Optional[str] = None,
 ) -> None:
     """Writes a point cloud; the format follows the extension. ``units``: the data's unit (None:
-    millimetres); PLY says it, E57 and glTF are written converted from it."""
+    millimetres); PLY says it, E57 and glTF are written converted from it. What the format cannot
+    hold (confidence in OBJ, glTF, E57) is a UserWarning."""
 
 def read_mesh(path: _Path) -> dict[str, Any]:
     """Reads a mesh: vertices (V×3), faces (index lists), triangles (F×3), normals, colors, units
@@ -45,7 +46,8 @@ def write_mesh(
     units: Optional[str] = None,
 ) -> None:
     """Writes a mesh; the format follows the extension. ``units``: the data's unit (None:
-    millimetres); PLY says it, E57, glTF and STL are written converted from it."""
+    millimetres); PLY says it, E57, glTF and STL are written converted from it. What the format
+    cannot hold (quads in STL and glTF, colours in STL) is a UserWarning."""
 
 def fuse(
     points: _F64,

@@ -58,7 +58,8 @@ pub fn write_options(units: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<r
 
 /// Writes a point cloud; the format follows the extension (binary PLY by default, float32
 /// coordinates as every viewer reads, float64 where float32 would round them). `units` is the
-/// data's unit (as `read_cloud` gives it; None: millimetres).
+/// data's unit (as `read_cloud` gives it; None: millimetres). What the format cannot hold (OBJ,
+/// glTF and E57 have no confidence) is a `UserWarning`.
 #[pyfunction]
 #[pyo3(signature = (path, points, normals=None, colors=None, confidence=None, *, units=None))]
 fn write_cloud(
@@ -80,7 +81,9 @@ fn write_cloud(
         confidence: arrays::optional_f32(confidence, "confidence", n)?,
         view_id: None,
     };
-    py.detach(|| rig::write_cloud(&path, &cloud, &opts)).map_err(errors::file)
+    py.detach(|| rig::write_cloud(&path, &cloud, &opts)).map_err(errors::file)?;
+    // What the format has no field for is said, as `scanrig convert` says it.
+    errors::warn_each(py, &rig::cloud_losses(&path, &cloud))
 }
 
 /// Reads a mesh (PLY, OBJ, STL, GLB). Returns a dict: vertices (V×3), faces (a list of index lists:
@@ -104,7 +107,8 @@ fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Bound<'_, PyDict>> {
 }
 
 /// Writes a mesh; the format follows the extension. `faces` is an F×3 (or F×4) integer array;
-/// `units` the data's unit (as `read_mesh` gives it; None: millimetres).
+/// `units` the data's unit (as `read_mesh` gives it; None: millimetres). What the format cannot hold
+/// (quads in STL or glTF, colours in STL) is a `UserWarning`.
 #[pyfunction]
 #[pyo3(signature = (path, vertices, faces, colors=None, *, units=None))]
 fn write_mesh(
@@ -123,7 +127,8 @@ fn write_mesh(
         mesh.push_face(face);
     }
     mesh.colors = arrays::optional_colors(colors, v.len())?;
-    py.detach(|| rig::write_mesh(&path, &mesh, &opts)).map_err(errors::file)
+    py.detach(|| rig::write_mesh(&path, &mesh, &opts)).map_err(errors::file)?;
+    errors::warn_each(py, &rig::mesh_losses(&path, &mesh))
 }
 
 /// Reads an image (PNG or JPEG): H×W uint8 for grey, H×W×3 for colour.

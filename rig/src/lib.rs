@@ -120,6 +120,6 @@ pub mod split_mix;
 pub mod topology;
 pub mod union_find;
 pub use mesh_io::{
-    MeshFormat, Reported, data_units, read_cloud, read_cloud_reported, read_mesh, read_mesh_reported, write_cloud,
-    write_mesh,
+    MeshFormat, Reported, cloud_losses, data_units, mesh_losses, read_cloud, read_cloud_reported, read_mesh,
+    read_mesh_reported, write_cloud, write_mesh,
 };

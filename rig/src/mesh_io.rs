@@ -180,6 +180,57 @@ pub fn write_cloud(path: &Path, cloud: &PointCloud, opts: &WriteOptions) -> Resu
     }
 }
 
+/// The output format's name in the sentences of [`mesh_losses`] and [`cloud_losses`].
+fn format_name(format: Option<MeshFormat>) -> &'static str {
+    match format {
+        Some(MeshFormat::Stl) => "STL",
+        Some(MeshFormat::Glb) => "glTF",
+        Some(MeshFormat::E57) => "E57",
+        Some(MeshFormat::Obj) => "OBJ",
+        _ => "its format",
+    }
+}
+
+/// What [`write_mesh`] to `path` leaves out of `mesh`, a sentence each naming the file (empty where
+/// the format keeps everything): faces of four or more corners become triangles in STL and glTF,
+/// vertex colours are lost in STL. Said, not dropped in silence, where a user names the file:
+/// `convert` and the other commands' `-o`, and Python's writers.
+pub fn mesh_losses(path: &Path, mesh: &PolyMesh) -> Vec<String> {
+    let format = MeshFormat::of(path);
+    let name = format_name(format);
+    let mut lost = Vec::new();
+    let polygons = mesh.faces().filter(|f| f.len() > 3).count();
+    if matches!(format, Some(MeshFormat::Stl | MeshFormat::Glb)) && polygons > 0 {
+        lost.push(format!(
+            "{}: its faces of four or more corners ({polygons}) are written as triangles ({name} holds triangles only)",
+            path.display()
+        ));
+    }
+    if format == Some(MeshFormat::Stl) && mesh.colors.is_some() {
+        lost.push(format!(
+            "{}: the vertex colours are not kept (STL has none; PLY, OBJ and glTF keep them)",
+            path.display()
+        ));
+    }
+    lost
+}
+
+/// What [`write_cloud`] to `path` leaves out of `cloud` (see [`mesh_losses`]): OBJ, glTF and E57
+/// have no field for the points' confidence or their view.
+pub fn cloud_losses(path: &Path, cloud: &PointCloud) -> Vec<String> {
+    let format = MeshFormat::of(path);
+    if !matches!(format, Some(MeshFormat::Obj | MeshFormat::Glb | MeshFormat::E57)) {
+        return Vec::new();
+    }
+    let not_kept = |what: &str| {
+        format!("{}: {what} not kept ({} has no field for it; PLY keeps it)", path.display(), format_name(format))
+    };
+    let mut lost = Vec::new();
+    lost.extend(cloud.confidence.is_some().then(|| not_kept("the points' confidence (fusion's weights) is")));
+    lost.extend(cloud.view_id.is_some().then(|| not_kept("which view each point came from is")));
+    lost
+}
+
 /// The unit of the data a file holds as scanrig reads them: a PLY's own (its `comment units`, or
 /// metres for the Stanford scans' Cyberware header), an OBJ's (`# units`, as scanrig writes it),
 /// millimetres for E57 and glTF (whose metres the readers turn into millimetres), `None` where the
