@@ -91,6 +91,16 @@ def test_a_cloud_in_metres_keeps_its_unit_through_every_writer(tmp_path):
             scanrig.write_range_grid(tmp_path / "bad.ply", {**grid, "units": bad})
 
 
+def test_what_a_format_cannot_hold_is_a_python_warning_naming_the_file(tmp_path):
+    # As `scanrig convert` says it: quads written to STL become triangles, OBJ has no confidence.
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], dtype=float)
+    with pytest.warns(UserWarning, match=r"q.stl: its faces of four or more corners \(1\)"):
+        scanrig.write_mesh(tmp_path / "q.stl", v, np.array([[0, 1, 2, 3]]))
+    with pytest.warns(UserWarning, match="c.obj: the points' confidence"):
+        scanrig.write_cloud(tmp_path / "c.obj", v, confidence=np.ones(4, dtype=np.float32))
+    assert scanrig.read_mesh(tmp_path / "q.stl")["triangles"].shape == (2, 3)
+
+
 def test_what_a_reader_cannot_keep_is_a_python_warning_naming_the_file(tmp_path):
     # Two vertices with colours, one without: the colours cannot be kept per vertex.
     obj = tmp_path / "partly-coloured.obj"
