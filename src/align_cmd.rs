@@ -8,6 +8,7 @@ use crate::json_outputs::Aligned;
 use anyhow::{Context, Result, bail};
 use process::register::global::{GlobalParams, align_global};
 use std::io::Write;
+use std::path::Path;
 
 pub fn run(args: &AlignArgs) -> Result<()> {
     crate::outputs::plan(
@@ -16,6 +17,7 @@ pub fn run(args: &AlignArgs) -> Result<()> {
     )?;
     // Options checked before a file is read.
     GlobalParams::check_voxel(args.voxel)?;
+    one_unit(&args.moving, &args.fixed)?;
     let moving = crate::inputs::read_cloud(&args.moving)?;
     let fixed = crate::inputs::read_cloud(&args.fixed)?;
     let params = GlobalParams::for_clouds(&moving.positions, &fixed.positions, args.voxel, args.seed)
@@ -28,19 +30,28 @@ pub fn run(args: &AlignArgs) -> Result<()> {
         fixed.len(),
         params.voxel
     ));
-    let a = align_global(&moving.positions, &fixed.positions, &params)
-        .with_context(|| format!("aligning {} onto {}", args.moving.display(), args.fixed.display()))?;
+    // Clouds in two units (files that do not say theirs) fail as too few points or matches: the
+    // sizes' ratio is named with the failure.
+    let a = align_global(&moving.positions, &fixed.positions, &params).map_err(|e| {
+        anyhow::anyhow!(
+            "aligning {} onto {}: {e}{}",
+            args.moving.display(),
+            args.fixed.display(),
+            size_hint(&moving.positions, &fixed.positions)
+        )
+    })?;
     if !a.aligned {
         if !args.force {
             bail!(
-                "{} could not be aligned onto {}: {} (overlap {:.0} %, {} of {} matches agree); nothing written — \
+                "{} could not be aligned onto {}: {} (overlap {:.0} %, {} of {} matches agree){}; nothing written — \
                  --force writes this best guess anyway",
                 args.moving.display(),
                 args.fixed.display(),
                 a.why,
                 100.0 * a.overlap,
                 a.inliers,
-                a.matches
+                a.matches,
+                size_hint(&moving.positions, &fixed.positions)
             );
         }
         eprintln!("warning: not aligned ({}), written anyway as --force asks", a.why);
@@ -89,4 +100,44 @@ pub fn run(args: &AlignArgs) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Refuses two files whose headers state different units: the alignment matches shapes by their
+/// distances, so a cloud in metres never matches one in millimetres, and the failure would otherwise
+/// read as "too few matches".
+fn one_unit(a: &Path, b: &Path) -> Result<()> {
+    let (Some(ua), Some(ub)) = (rig::data_units(a)?, rig::data_units(b)?) else { return Ok(()) };
+    let differ = match (rig::precision::millimetres_per(&ua), rig::precision::millimetres_per(&ub)) {
+        (Some(x), Some(y)) => (x - y).abs() > 1e-9 * x.max(y),
+        _ => !ua.eq_ignore_ascii_case(&ub),
+    };
+    if differ {
+        bail!(
+            "{} is in {ua} and {} in {ub} (as their files say): align matches the clouds' shapes by their distances, \
+             so both must be in one unit; nothing was aligned",
+            a.display(),
+            b.display()
+        );
+    }
+    Ok(())
+}
+
+/// Sizes further apart than this, as a ratio of bounding-box diagonals, are named when an alignment
+/// fails: a part can be aligned onto a whole, but rarely one this much smaller.
+const SIZE_RATIO_HINT: f64 = 5.0;
+
+/// When the clouds' sizes differ by more than [`SIZE_RATIO_HINT`], what the failure may really be:
+/// two units (files that do not say theirs: 1000 for m and mm, 25.4 for inches).
+fn size_hint(a: &[rig::Point3], b: &[rig::Point3]) -> String {
+    let diagonal = |p: &[rig::Point3]| rig::Aabb::of(p).map_or(0.0, |b| b.diagonal());
+    let (da, db) = (diagonal(a), diagonal(b));
+    let ratio = da.max(db) / da.min(db);
+    // NaN (an empty extent) says nothing either.
+    if ratio.is_nan() || ratio <= SIZE_RATIO_HINT {
+        return String::new();
+    }
+    format!(
+        "; A is {da:.4} across and B {db:.4}, {ratio:.1}× apart in size — if they are one object in two units \
+         (1000× for m and mm, 25.4× for inches), bring them to one unit first"
+    )
 }

@@ -1049,6 +1049,21 @@ fn align_moves_a_bunny_scan_onto_its_neighbour_and_refuses_a_sphere_unless_force
         assert!(!d.path("other.ply").exists());
         eprintln!("{a} onto {b}: {}", stderr(&o).lines().last().unwrap_or(""));
     }
+    // One cylinder in metres, the other in millimetres: said so, not "too few matches". Files that
+    // state their unit are refused before any work; files that do not are told the sizes' ratio.
+    let own = rig::read_cloud(&d.path("cylinder.ply")).unwrap();
+    let metres = rig::PointCloud::from_positions(own.positions.iter().map(|p| p * 1e-3).collect());
+    let in_m = rig::ply::WriteOptions::default().with_units("m");
+    rig::write_cloud(&d.path("cylinder_m.ply"), &metres, &in_m).unwrap();
+    rig::write_cloud(&d.path("cylinder_bare.ply"), &metres, &Default::default()).unwrap();
+    let in_mm = rig::ply::WriteOptions::default().with_units("mm");
+    rig::write_cloud(&d.path("cylinder_mm.ply"), &own, &in_mm).unwrap();
+    let o = scanrig(&[&"align", &d.path("cylinder_m.ply"), &d.path("cylinder_mm.ply")]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("cylinder_m.ply is in m and") && e.contains("in mm"), "{e}");
+    let o = scanrig(&[&"align", &d.path("cylinder_bare.ply"), &d.path("cylinder.ply")]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("1000.0× apart in size") && e.contains("two units"), "{e}");
 
     // The real bunny scans (in metres): bun045 onto bun000, judged against bun.conf.
     let (Some(a), Some(b), Some(poses)) =
