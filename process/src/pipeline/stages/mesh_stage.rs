@@ -699,8 +699,10 @@ pub const CLOSE: StageCode = StageCode { stage: "close", version: 1 };
 /// record keeps the support check's measurement, which a reused mesh is judged by again; 6: and how
 /// high the reconstruction rose above the working volume's top, for the same; 7: and whether it is inside
 /// out, faces against its samples' normals or leaves samples out, which are refused unless forced;
-/// 8: and the cloud's points apart from the object, which widen the grid, refused the same way).
-pub const MESH: StageCode = StageCode { stage: "mesh", version: 8 };
+/// 8: and the cloud's points apart from the object, which widen the grid, refused the same way; 9: the
+/// object is the widest piece with every piece within its size chained to it, so a second object far
+/// away is apart too, where a mesh kept from before had taken it for the object's own).
+pub const MESH: StageCode = StageCode { stage: "mesh", version: 9 };
 
 /// What the closed cloud is made from besides the fused cloud: the closing parameters.
 pub fn close_fingerprint(params: &CloseParams) -> Fingerprint {
