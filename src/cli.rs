@@ -158,21 +158,32 @@ pub enum ImportCommand {
 
 #[derive(Subcommand, Debug)]
 pub enum ExportCommand {
-    /// A rig as Horus' settings.json (calibration_settings only; merge it into Horus' own file).
+    /// A rig as Horus' settings.json (its calibration_settings; with --into, laid over Horus' own
+    /// file so its other settings stay).
     Horus {
         /// The rig file.
         rig: PathBuf,
         /// The settings file to write.
         #[arg(long, short)]
         out: PathBuf,
+        /// Horus' own settings.json: the output is it with the rig's calibration in place (it is read,
+        /// never written).
+        #[arg(long)]
+        into: Option<PathBuf>,
     },
-    /// A rig as FabScanPi's config.json (its calibration, camera, laser and turntable blocks).
+    /// A rig as FabScanPi's config.json (its calibration, camera, laser and turntable blocks; with
+    /// --into, laid over the scanner's own config so turntable.steps, calibration.pattern, folders
+    /// and connector stay as they were).
     Fabscan {
         /// The rig file.
         rig: PathBuf,
         /// The config file to write.
         #[arg(long, short)]
         out: PathBuf,
+        /// The scanner's own config.json: the output is it with the rig's numbers in place (it is read,
+        /// never written).
+        #[arg(long)]
+        into: Option<PathBuf>,
     },
 }
 

@@ -242,21 +242,48 @@ fn import_fabscan_pass(dir: &Path, config: Option<&Path>, step_deg: Option<f64>,
 }
 
 pub fn export(command: &ExportCommand) -> Result<()> {
-    let (rig_path, out, text) = match command {
-        ExportCommand::Horus { rig, out } => {
-            let r = rig::Rig::read(rig)?;
-            let text = rig::scanner_calibration::rig_to_horus(&r)
-                .map_err(|why| anyhow::anyhow!("{} cannot be written as Horus settings: {why}", rig.display()))?;
-            (rig, out, text)
-        }
-        ExportCommand::Fabscan { rig, out } => {
-            let r = rig::Rig::read(rig)?;
-            let text = rig::scanner_calibration::rig_to_fabscan(&r)
-                .map_err(|why| anyhow::anyhow!("{} cannot be written as a FabScanPi config: {why}", rig.display()))?;
-            (rig, out, text)
+    let (rig_path, out, into, scanner) = match command {
+        ExportCommand::Horus { rig, out, into } => (rig, out, into, "Horus settings"),
+        ExportCommand::Fabscan { rig, out, into } => (rig, out, into, "a FabScanPi config"),
+    };
+    let mut inputs = vec![("RIG", rig_path.as_path())];
+    if let Some(into) = into {
+        inputs.push(("--into", into.as_path()));
+    }
+    crate::outputs::plan(&inputs, &[("--out", Some(out.as_path()))])?;
+    let r = rig::Rig::read(rig_path)?;
+    let kind = match command {
+        ExportCommand::Horus { .. } => rig::scanner_calibration::Scanner::Horus,
+        ExportCommand::Fabscan { .. } => rig::scanner_calibration::Scanner::Fabscan,
+    };
+    let ours = match command {
+        ExportCommand::Horus { .. } => rig::scanner_calibration::rig_to_horus(&r),
+        ExportCommand::Fabscan { .. } => rig::scanner_calibration::rig_to_fabscan(&r),
+    }
+    .map_err(|why| anyhow::anyhow!("{} cannot be written as {scanner}: {why}", rig_path.display()))?;
+    let text = match into {
+        Some(into) => rig::scanner_calibration::merge_into(&read_text(into)?, &ours, kind)
+            .with_context(|| format!("--into {}: reading the scanner's own file", into.display()))?,
+        None => {
+            // The scanner reads everything from this one file: what a rig does not hold is missing.
+            let missing = match command {
+                ExportCommand::Horus { .. } => "every category but calibration_settings",
+                ExportCommand::Fabscan { .. } => {
+                    "turntable.steps (a wrong one half-inverts the clouds), calibration.pattern, folders and connector"
+                }
+            };
+            crate::progress::note(format!(
+                "note: {} holds only the rig's numbers, not {missing}; give --into with the scanner's own file to \
+                 keep those",
+                out.display()
+            ));
+            ours
         }
     };
     rig::write_atomic(out, text.as_bytes())?;
-    println!("{}: from {}", out.display(), rig_path.display());
+    match into {
+        Some(into) => println!("{}: {} with the numbers of {}", out.display(), into.display(), rig_path.display()),
+        None => println!("{}: from {}", out.display(), rig_path.display()),
+    }
     Ok(())
 }

@@ -341,6 +341,92 @@ pub fn rig_to_fabscan(rig: &Rig) -> Result<String, String> {
     Ok(serde_json::to_string_pretty(&v).expect("plain numbers and strings serialise"))
 }
 
+/// Which scanner's file [`merge_into`] lays an export over.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scanner {
+    /// FabScanPi's `config.json`.
+    Fabscan,
+    /// Horus' `settings.json`.
+    Horus,
+}
+
+impl Scanner {
+    /// Settings the export speaks for whether or not it writes them: removed from the scanner's file
+    /// first, so a one-laser rig laid over a two-laser Horus file leaves no stale right-hand plane.
+    fn owned(self) -> &'static [&'static str] {
+        match self {
+            Scanner::Fabscan => &["calibration.laser_planes"],
+            Scanner::Horus => &[
+                "calibration_settings.normal_left",
+                "calibration_settings.distance_left",
+                "calibration_settings.normal_right",
+                "calibration_settings.distance_right",
+            ],
+        }
+    }
+
+    /// Settings of the scanner's own that are not calibration (how it captures), kept as it has them.
+    fn kept(self) -> &'static [&'static str] {
+        match self {
+            Scanner::Fabscan => &["laser.interleaved"],
+            Scanner::Horus => &[],
+        }
+    }
+}
+
+/// `ours` (an export of [`rig_to_fabscan`] or [`rig_to_horus`]) laid over the scanner's own file
+/// `existing`: objects are merged key by key, every other value of ours replaces the file's, and what
+/// a rig does not hold (FabScanPi's `turntable.steps`, `calibration.pattern`, `folders`, `connector`;
+/// Horus' other categories) stays as the scanner had it. The scanner reads its whole configuration
+/// from that one file, so an export alone would leave those out. The laser planes are the rig's
+/// alone (the file's are removed first), and how the scanner captures (`laser.interleaved`) stays.
+pub fn merge_into(existing: &str, ours: &str, scanner: Scanner) -> Result<String, ParseError> {
+    fn lay(base: &mut Value, top: Value) {
+        match (base, top) {
+            (Value::Object(b), Value::Object(t)) => {
+                for (k, v) in t {
+                    match b.get_mut(&k) {
+                        Some(slot) => lay(slot, v),
+                        None => {
+                            b.insert(k, v);
+                        }
+                    }
+                }
+            }
+            (slot, v) => *slot = v,
+        }
+    }
+    /// Removes the value at a dotted `path` from `v`, returning it.
+    fn take(v: &mut Value, path: &str) -> Option<Value> {
+        let (parent, key) = path.rsplit_once('.').map_or((None, path), |(p, k)| (Some(p), k));
+        let holder = match parent {
+            Some(p) => p.split('.').try_fold(&mut *v, |v, k| v.get_mut(k))?,
+            None => v,
+        };
+        holder.as_object_mut()?.remove(key)
+    }
+    let mut base = parse_json(existing)?;
+    let mut ours = parse_json(ours)?;
+    let (Some(b), Some(o)) = (base.as_object(), ours.as_object()) else {
+        return Err(err("(top level)", "must be an object of settings"));
+    };
+    // Another scanner's file (a Horus settings.json given for FabScanPi) shares none of the blocks.
+    if !o.keys().any(|k| b.contains_key(k)) {
+        let keys: Vec<&str> = o.keys().map(String::as_str).collect();
+        return Err(err("(top level)", format!("holds none of {}: not this scanner's file", keys.join(", "))));
+    }
+    for path in scanner.owned() {
+        take(&mut base, path);
+    }
+    for path in scanner.kept() {
+        if get(&base, path).is_ok() {
+            take(&mut ours, path);
+        }
+    }
+    lay(&mut base, ours);
+    Ok(serde_json::to_string_pretty(&base).expect("parsed JSON serialises"))
+}
+
 /// A Horus setting's value: `calibration_settings.NAME.value`.
 fn horus<'a>(v: &'a Value, name: &str) -> Result<&'a Value, ParseError> {
     let field = format!("calibration_settings.{name}");

@@ -429,7 +429,19 @@ fn input_cases() -> Vec<Case> {
         cases.push(case(&format!("calibrate camera {name} -o rig.toml --board 7x5"), &[name], &["rig.toml"]));
         cases.push(case(&format!("import horus {name} -o rig.toml"), &[name], &["rig.toml"]));
         cases.push(case(&format!("import fabscan {name} -o rig.toml"), &[name], &["rig.toml"]));
+        // The scanner's own file an export is laid over: read, never written.
+        for scanner in ["fabscan", "horus"] {
+            cases.push(case(
+                &format!("export {scanner} lscan/rig.toml --into {name} -o out.json"),
+                &[name],
+                &["out.json"],
+            ));
+        }
     }
+    cases.push(case("export fabscan lscan/rig.toml --into cloud.ply -o out.json", &["cloud.ply"], &["out.json"]));
+    let into = "lscan/fabscan/config.json";
+    cases.push(case(&format!("export fabscan lscan/rig.toml --into {into} -o {into}"), &["config.json"], &[]));
+    cases.push(case("export fabscan lscan/rig.toml -o lscan/rig.toml", &["rig.toml"], &[]));
     // An output that is the input, another name for it, or inside the scan it reads.
     cases.push(case("fuse cloud.ply -o cloud.ply", &["cloud.ply"], &[]));
     cases.push(case("fuse cloud.ply -o hardlink.ply", &["hardlink.ply"], &[]));

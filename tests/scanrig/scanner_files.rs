@@ -43,6 +43,29 @@ fn fabscan_and_horus_files_go_through_rig_files_and_back() {
         };
         assert_eq!(strip(&a["calibration"][key]), strip(&b["calibration"][key]), "{key}");
     }
+    // Alone the export says what it leaves out; into the scanner's own file it keeps the rest.
+    let o = scanrig(&[&"export", &"fabscan", &p("fab.toml"), &"-o", &p("alone.json")]);
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--into"), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut own = a.clone();
+    own["turntable"]["steps"] = Value::from(6400);
+    own["calibration"]["pattern"] = serde_json::json!({ "rows": 8, "columns": 10 });
+    // The scanner's own file holds another calibration: the rig's numbers replace it.
+    own["calibration"]["platform_translation"] = serde_json::json!([1.0, 2.0, 3.0]);
+    std::fs::write(p("own.json"), own.to_string()).unwrap();
+    let before = std::fs::read(p("own.json")).unwrap();
+    ok(&scanrig(&[&"export", &"fabscan", &p("fab.toml"), &"--into", &p("own.json"), &"-o", &p("merged.json")]));
+    let merged: Value = serde_json::from_str(&std::fs::read_to_string(p("merged.json")).unwrap()).unwrap();
+    assert_eq!(
+        (&merged["turntable"]["steps"], &merged["calibration"]["pattern"]["rows"]),
+        (&Value::from(6400), &Value::from(8))
+    );
+    assert_eq!(merged["calibration"]["platform_translation"], a["calibration"]["platform_translation"]);
+    assert_eq!(std::fs::read(p("own.json")).unwrap(), before, "the scanner's file is read, not written");
+    // Written over itself: refused before anything is read.
+    let o = scanrig(&[&"export", &"fabscan", &p("fab.toml"), &"--into", &p("own.json"), &"-o", &p("own.json")]);
+    assert!(!o.status.success() && String::from_utf8_lossy(&o.stderr).contains("--into"));
+    assert_eq!(std::fs::read(p("own.json")).unwrap(), before);
     // The same rig as Horus settings, and back to an identical file.
     ok(&scanrig(&[&"export", &"horus", &p("fab.toml"), &"-o", &p("settings.json")]));
     ok(&scanrig(&[&"import", &"horus", &p("settings.json"), &"-o", &p("horus.toml")]));

@@ -1,7 +1,7 @@
 //! Other scanners' calibration files (issue 21): FabScanPi's config.json and Horus' settings.json to a
 //! rig and back, number for number; what cannot be right refused naming the field.
 
-use rig::scanner_calibration::{rig_from_fabscan, rig_from_horus, rig_to_fabscan, rig_to_horus};
+use rig::scanner_calibration::{Scanner, merge_into, rig_from_fabscan, rig_from_horus, rig_to_fabscan, rig_to_horus};
 use serde_json::Value;
 
 const FABSCAN: &str = include_str!("../fixtures/fabscan_config.json");
@@ -81,6 +81,53 @@ fn the_real_fabscanpi_config_round_trips_exactly() {
     assert_eq!(rig_from_fabscan(&exported).unwrap(), rig);
     let toml = rig.to_toml_string();
     assert_eq!(rig::Rig::from_toml_str(&toml).unwrap(), rig, "through the rig file too");
+}
+
+/// An export laid over the scanner's own file keeps what a rig does not hold (FabScanPi reads its
+/// whole configuration from that one file: its turntable's steps, calibration board, folders) and
+/// takes every number the rig does hold.
+#[test]
+fn an_export_into_the_scanners_own_file_keeps_the_rest() {
+    let mut other = rig_from_horus(HORUS).unwrap();
+    other.platter_radius_mm = Some(90.0);
+    let mut own = json(FABSCAN);
+    own["turntable"]["steps"] = 6400.into();
+    own["calibration"]["pattern"] = serde_json::json!({ "rows": 8, "columns": 10, "square_size": 7 });
+    own["folders"] = serde_json::json!({ "scans": "/fabscan/scans/" });
+    own["laser"]["interleaved"] = "True".into();
+    let merged = json(&merge_into(&own.to_string(), &rig_to_fabscan(&other).unwrap(), Scanner::Fabscan).unwrap());
+    assert_eq!(merged["laser"]["interleaved"], "True", "how the scanner captures is its own");
+    assert_eq!(merged["turntable"]["steps"], 6400, "kept");
+    assert_eq!(merged["calibration"]["pattern"]["rows"], 8, "kept");
+    assert_eq!(merged["folders"]["scans"], "/fabscan/scans/", "kept");
+    assert_eq!(merged["turntable"]["radius"], 90.0, "the rig's");
+    let back = rig_from_fabscan(&merged.to_string()).unwrap();
+    assert_eq!((&back.camera, &back.lasers, back.turntable), (&other.camera, &other.lasers, other.turntable));
+    // Horus' other categories stay too.
+    let mut horus = json(HORUS);
+    horus["profile_settings"] = serde_json::json!({ "laser_threshold_value": { "value": 50 } });
+    let merged = json(&merge_into(&horus.to_string(), &rig_to_horus(&other).unwrap(), Scanner::Horus).unwrap());
+    assert_eq!(merged["profile_settings"]["laser_threshold_value"]["value"], 50);
+    let back = rig_from_horus(&merged.to_string()).unwrap();
+    assert_eq!((&back.camera, &back.lasers, back.turntable), (&other.camera, &other.lasers, other.turntable));
+    // A one-laser rig over a two-laser Horus file: no stale right-hand plane is left behind.
+    let mut one = other.clone();
+    one.lasers.truncate(1);
+    let merged = merge_into(HORUS, &rig_to_horus(&one).unwrap(), Scanner::Horus).unwrap();
+    assert!(json(&merged)["calibration_settings"].get("normal_right").is_none(), "{merged}");
+    let planes = |r: &rig::Rig| r.lasers.iter().map(|l| l.plane).collect::<Vec<_>>();
+    assert_eq!(planes(&rig_from_horus(&merged).unwrap()), planes(&one));
+    // The other scanner's file, or not an object at all, is refused.
+    let cases = [
+        (HORUS, rig_to_fabscan(&other).unwrap(), Scanner::Fabscan),
+        (FABSCAN, rig_to_horus(&other).unwrap(), Scanner::Horus),
+    ];
+    for (base, ours, scanner) in cases {
+        let e = merge_into(base, &ours, scanner).unwrap_err().to_string();
+        assert!(e.contains("not this scanner's file"), "{e}");
+    }
+    assert!(merge_into("[1, 2]", &rig_to_horus(&other).unwrap(), Scanner::Horus).is_err());
+    assert!(merge_into("{", &rig_to_horus(&other).unwrap(), Scanner::Horus).is_err());
 }
 
 proptest::proptest! {
