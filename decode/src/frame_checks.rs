@@ -59,6 +59,10 @@ pub enum IssueKind {
     InverseSwapped,
     /// The map is mirrored: the most significant pair of an axis swapped.
     Mirrored,
+    /// Every pattern of an axis swapped with its inverse (the `_inv` frames taken as the patterns):
+    /// the code inverted fits the phase, or is continuous, where as decoded it is not. Names the
+    /// axis's first pair, then its last.
+    AllInversesSwapped,
 }
 
 /// One failed check, with the frames it concerns.
@@ -114,6 +118,15 @@ impl fmt::Display for FrameIssue {
                 f,
                 "{a} and {b} look swapped (the pattern and its inverse): with that bit flipped back the code is \
                  continuous, as decoded it jumps at every stripe of that bit"
+            ),
+            IssueKind::AllInversesSwapped => write!(
+                f,
+                "every Gray-code pair from {a} to {} looks swapped, each pattern with its inverse ({a} with {b}, …, \
+                 {} with {}): read the other way round the code fits where as read it does not (frames named the \
+                 wrong way round?)",
+                self.name(3),
+                self.name(2),
+                self.name(3)
             ),
             IssueKind::Mirrored => write!(
                 f,
@@ -199,6 +212,22 @@ pub(crate) fn check_block(white: &[u8], black: &[u8], pairs: &[(&[u8], &[u8])], 
     }
 }
 
+/// `f(a, b)` for the decoded indices of each pixel of row `y` and its right and lower neighbours,
+/// where both are decoded (`u32::MAX` is undecoded).
+fn row_pairs(index: &[u32], width: usize, height: usize, y: usize, mut f: impl FnMut(u32, u32)) {
+    for x in 0..width {
+        let a = index[y * width + x];
+        if a == u32::MAX {
+            continue;
+        }
+        let right = (x + 1 < width).then(|| index[y * width + x + 1]);
+        let down = (y + 1 < height).then(|| index[(y + 1) * width + x]);
+        for b in [right, down].into_iter().flatten().filter(|&b| b != u32::MAX) {
+            f(a, b);
+        }
+    }
+}
+
 /// Jumps in a decoded axis between neighbours, as decoded and with each bit flipped back: a bit whose
 /// flip removes most of them is a swapped pair. `index` holds each pixel's integer projector index
 /// (`u32::MAX` where undecoded), `bits` the code's length; returns the bit positions (0 = most
@@ -216,25 +245,17 @@ pub(crate) fn swapped_bits(index: &[u32], width: usize, height: usize, bits: u32
         .map(|y| {
             let mut c = vec![(0usize, 0usize); candidates.len()];
             let mut pairs = 0usize;
-            for x in 0..width {
-                let a = index[y * width + x];
-                if a == u32::MAX {
-                    continue;
+            row_pairs(index, width, height, y, |a, b| {
+                pairs += 1;
+                for (slot, &bit) in c.iter_mut().zip(&candidates) {
+                    let j = bits - 1 - bit;
+                    let mask = (1u32 << (j + 1)) - 1;
+                    let limit = 1i64 << (j + 1);
+                    let jump = |p: u32, q: u32| (p as i64 - q as i64).abs() > limit;
+                    slot.0 += usize::from(jump(a, b));
+                    slot.1 += usize::from(jump(a ^ mask, b ^ mask));
                 }
-                let right = (x + 1 < width).then(|| index[y * width + x + 1]);
-                let down = (y + 1 < height).then(|| index[(y + 1) * width + x]);
-                for b in [right, down].into_iter().flatten().filter(|&b| b != u32::MAX) {
-                    pairs += 1;
-                    for (slot, &bit) in c.iter_mut().zip(&candidates) {
-                        let j = bits - 1 - bit;
-                        let mask = (1u32 << (j + 1)) - 1;
-                        let limit = 1i64 << (j + 1);
-                        let jump = |p: u32, q: u32| (p as i64 - q as i64).abs() > limit;
-                        slot.0 += usize::from(jump(a, b));
-                        slot.1 += usize::from(jump(a ^ mask, b ^ mask));
-                    }
-                }
-            }
+            });
             (c, pairs)
         })
         .reduce(
@@ -256,6 +277,26 @@ pub(crate) fn swapped_bits(index: &[u32], width: usize, height: usize, bits: u32
         })
         .map(|(&b, _)| b)
         .collect()
+}
+
+/// Whether the decoded axis is continuous only with every pair swapped back: every Gray bit flipped
+/// turns the binary index `x` into `x ^ C`, `C` the inverse Gray code of all ones, so neighbours jump
+/// at every stripe of every bit. Jumps over 8 projector pixels, counted as for [`swapped_bits`].
+pub(crate) fn all_swapped(index: &[u32], width: usize, height: usize, bits: u32) -> bool {
+    if bits < 4 || width < 2 || height < 2 {
+        return false;
+    }
+    let c = rig::patterns::gray_inverse(u32::MAX.checked_shr(32 - bits).unwrap_or(0));
+    let (mut as_decoded, mut flipped, mut pairs) = (0usize, 0usize, 0usize);
+    let jump = |p: u32, q: u32| (p as i64 - q as i64).abs() > 8;
+    for y in 0..height {
+        row_pairs(index, width, height, y, |a, b| {
+            pairs += 1;
+            as_decoded += usize::from(jump(a, b));
+            flipped += usize::from(jump(a ^ c, b ^ c));
+        });
+    }
+    as_decoded >= 20 && as_decoded as f64 >= 0.05 * pairs as f64 && flipped * 4 < as_decoded
 }
 
 /// Which axis a mirrored map has reversed, if it is mirrored: `Some(true)` columns, `Some(false)` rows,

@@ -297,7 +297,11 @@ fn collect_axis<'a>(
 
 /// One axis decoded over a block of pixels `[i0, i0 + n)`: coordinate (NaN where undecoded) and
 /// confidence, written into `out`. Frame-major loops: each frame is read once, contiguously, per block.
-/// `want[k]` false skips pixel k's final step (a row is not needed where the column failed).
+/// `want[k]` false skips pixel k's final step (a row is not needed where the column failed, unless the
+/// inverted column code fitted somewhere in the block, and the rows are asked the same question).
+/// Returns how many pixels the phase rejected that the inverted Gray code (every pattern taken for
+/// its inverse) would have matched: a capture whose `_inv` frames are its patterns decodes almost
+/// nowhere with a phase, and almost everywhere so inverted ([`IssueKind::AllInversesSwapped`]).
 fn decode_axis_block(
     a: &AxisFrames<'_>,
     i0: usize,
@@ -305,7 +309,7 @@ fn decode_axis_block(
     want: &[bool],
     p: &DecodeParams,
     out: &mut [(f64, f32)],
-) {
+) -> usize {
     let n = out.len();
     let mut code = [0u32; BLOCK];
     let mut weakest = [u8::MAX; BLOCK];
@@ -329,29 +333,37 @@ fn decode_axis_block(
         }
         sums = Some((s, c));
     }
+    // The code's bits all set (a code of 32 bits would overflow a shift of 1 << 32).
+    let all_bits = u32::MAX.checked_shr(32 - a.gray.len() as u32).unwrap_or(0);
+    let mut inverted_fits = 0;
     for k in 0..n {
         out[k] = (f64::NAN, 0.0);
         if !want[k] || swing[k] < p.shadow_threshold as f32 {
             continue;
         }
         let index = rig::patterns::gray_inverse(code[k]);
-        if index >= a.size {
-            continue;
-        }
         match (&a.phase, &sums) {
             (Some((steps, _)), Some((s, c))) => {
                 let (wrapped, modulation) = steps.finish(s[k] as f64, c[k] as f64);
                 if modulation < p.min_modulation {
                     continue;
                 }
-                if let Some(x) = unwrap(wrapped, index, steps.period_px, p.phase_tolerance_px) {
-                    out[k] = (x, (modulation / (0.5 * swing[k] as f64)).min(1.0) as f32);
+                let fit = |index: u32| {
+                    (index < a.size).then(|| unwrap(wrapped, index, steps.period_px, p.phase_tolerance_px)).flatten()
+                };
+                match fit(index) {
+                    Some(x) => out[k] = (x, (modulation / (0.5 * swing[k] as f64)).min(1.0) as f32),
+                    None => {
+                        inverted_fits += usize::from(fit(rig::patterns::gray_inverse(!code[k] & all_bits)).is_some())
+                    }
                 }
             }
+            _ if index >= a.size => {}
             _ if weakest[k] >= p.bit_threshold => out[k] = (index as f64, (weakest[k] as f32 / swing[k]).min(1.0)),
             _ => {}
         }
     }
+    inverted_fits
 }
 
 /// Decodes a view's frames (each with the pattern it shows) for a projector of `proj_width ×
@@ -384,7 +396,7 @@ pub fn decode_view(
     let axes: Vec<&AxisFrames<'_>> = std::iter::once(&cols).chain(&rows).collect();
     let pairs: Vec<(&Image8, &Image8)> = axes.iter().flat_map(|a| a.gray.iter().copied()).collect();
     let pair_frames: Vec<(usize, usize)> = axes.iter().flat_map(|a| a.gray_index.iter().copied()).collect();
-    let (counts, column_only) = map
+    let (counts, column_only, inverted, decoded) = map
         .u
         .par_chunks_mut(BLOCK)
         .zip(map.v.par_chunks_mut(BLOCK))
@@ -405,18 +417,23 @@ pub fn decode_view(
             }
             // Background and shadow come in whole blocks: skip reading the other frames there.
             if !lit.iter().any(|&l| l) {
-                return (counts, 0);
+                return (counts, 0, [0, 0], [0, 0]);
             }
             let mut col = [(f64::NAN, 0f32); BLOCK];
-            decode_axis_block(&cols, i0, &swing[..n], &lit[..n], params, &mut col[..n]);
+            let mut inverted = [decode_axis_block(&cols, i0, &swing[..n], &lit[..n], params, &mut col[..n]), 0];
             let mut row = [(f64::NAN, 0f32); BLOCK];
             if let Some(r) = &rows {
+                // Rows are asked where columns decoded, or (to test the inversion) where only their
+                // inversion fitted: the whole lit block then.
                 let mut want = [false; BLOCK];
-                for (w, c) in want.iter_mut().zip(&col[..n]) {
-                    *w = c.0.is_finite();
+                for ((w, c), l) in want.iter_mut().zip(&col[..n]).zip(&lit[..n]) {
+                    *w = c.0.is_finite() || (inverted[0] > 0 && *l);
                 }
-                decode_axis_block(r, i0, &swing[..n], &want[..n], params, &mut row[..n]);
+                inverted[1] = decode_axis_block(r, i0, &swing[..n], &want[..n], params, &mut row[..n]);
             }
+            // Each axis's own decoded pixels (the map keeps a column only where its row decoded too).
+            let finite = |a: &[(f64, f32)]| a.iter().filter(|c| c.0.is_finite()).count();
+            let decoded = [finite(&col[..n]), finite(&row[..n])];
             let mut column_only = 0;
             for k in 0..n {
                 if !col[k].0.is_finite() {
@@ -430,24 +447,42 @@ pub fn decode_view(
                 v[k] = row[k].0;
                 conf[k] = if row[k].0.is_finite() { col[k].1.min(row[k].1) } else { col[k].1 };
             }
-            (counts, column_only)
+            (counts, column_only, inverted, decoded)
         })
-        .reduce(|| (Counts::new(pairs.len()), 0), |a, b| (a.0.add(b.0), a.1 + b.1));
+        .reduce(
+            || (Counts::new(pairs.len()), 0, [0, 0], [0, 0]),
+            |a, b| (a.0.add(b.0), a.1 + b.1, [a.2[0] + b.2[0], a.2[1] + b.2[1]], [a.3[0] + b.3[0], a.3[1] + b.3[1]]),
+        );
     let lit_count = lit.iter().filter(|&&l| l).count();
     let name = |k: usize| frames[k].0.name();
     let mut issues = frame_issues(&counts, lit_count, (white_k, black_k), &pair_frames, &name);
+    // Every pattern taken for its inverse: with a phase, the inverted code fits where the code does not.
+    let mut all_swapped = [false, false];
+    for (k, a) in std::iter::once(&cols).chain(&rows).enumerate() {
+        all_swapped[k] =
+            a.phase.is_some() && inverted[k] >= 100 && inverted[k] > 2 * decoded[k] && 2 * inverted[k] > lit_count;
+    }
     // The codes' continuity and handedness, on the integer indices before they are refined.
-    for (a, coord) in std::iter::once((&cols, &map.u)).chain(rows.as_ref().map(|r| (r, &map.v))) {
+    for (k, (a, coord)) in std::iter::once((&cols, &map.u)).chain(rows.as_ref().map(|r| (r, &map.v))).enumerate() {
         let index: Vec<u32> =
             coord.iter().map(|c| if c.is_finite() { (c + 0.5).floor().max(0.0) as u32 } else { u32::MAX }).collect();
-        for bit in crate::frame_checks::swapped_bits(&index, w, h, a.gray.len() as u32) {
+        let bits = a.gray.len() as u32;
+        all_swapped[k] |= crate::frame_checks::all_swapped(&index, w, h, bits);
+        if all_swapped[k] {
+            let (first, last) = (a.gray_index[0], a.gray_index[a.gray_index.len() - 1]);
+            let frames = vec![first.0, first.1, last.0, last.1];
+            let names = frames.iter().map(|&f| name(f)).collect();
+            issues.push(FrameIssue::new(IssueKind::AllInversesSwapped, frames, names, 1.0));
+            continue;
+        }
+        for bit in crate::frame_checks::swapped_bits(&index, w, h, bits) {
             let (p, q) = a.gray_index[bit as usize];
             issues.push(FrameIssue::new(IssueKind::InverseSwapped, vec![p, q], vec![name(p), name(q)], 1.0));
         }
     }
     // A swapped lower bit reverses the code within its stripes, which looks mirrored too.
     if let Some(r) = &rows
-        && issues.iter().all(|i| i.kind != IssueKind::InverseSwapped)
+        && issues.iter().all(|i| !matches!(i.kind, IssueKind::InverseSwapped | IssueKind::AllInversesSwapped))
         && let Some(columns) = crate::frame_checks::mirrored(&map.u, &map.v, w, h)
     {
         let (p, q) = if columns { cols.gray_index[0] } else { r.gray_index[0] };
@@ -632,6 +667,19 @@ mod tests {
         imgs.swap(20, 21);
         let issues = fatal(&order, &imgs);
         assert_eq!((issues[0].kind, issues[0].frames.clone()), (IssueKind::Mirrored, vec![20, 21]), "{issues:?}");
+
+        // Every pattern swapped with its inverse (the `_inv` frames named as the patterns): as decoded
+        // the code jumps at every stripe, and no one bit flipped back mends it.
+        for (axis, first) in [("columns", 0usize), ("rows", 20)] {
+            let mut imgs = clean.clone();
+            for k in (first..first + 20).step_by(2) {
+                imgs.swap(k, k + 1);
+            }
+            let issues = fatal(&order, &imgs);
+            assert_eq!(issues[0].kind, IssueKind::AllInversesSwapped, "{axis}: {issues:?}");
+            assert_eq!(issues[0].frames, vec![first, first + 1, first + 18, first + 19], "{axis}");
+            assert!(issues.iter().all(|i| i.kind != IssueKind::InverseSwapped), "{axis}: {issues:?}");
+        }
 
         // White and black swapped: no longer an empty map without a word.
         let mut imgs = clean.clone();

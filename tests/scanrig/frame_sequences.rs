@@ -103,6 +103,17 @@ fn decode_refuses_frames_that_contradict_themselves_unless_forced() {
         swapped,
         vec!["mirrored", "graycode_20.png and", "graycode_21.png (the most significant pair)"],
     ));
+    // Every column pattern swapped with its inverse (the `_inv` files named as the patterns): no single
+    // pair mends the code, and it had gone on as a scrambled map.
+    let mut swapped = files.clone();
+    for k in (0..20).step_by(2) {
+        swapped.swap(k, k + 1);
+    }
+    cases.push((
+        "all-pairs",
+        swapped,
+        vec!["graycode_19.png looks swapped, each pattern with its inverse", "pair from"],
+    ));
     let mut swapped = files.clone();
     swapped.swap(40, 41);
     cases.push(("white-black", swapped, vec!["white and black look swapped", "graycode_41.png is brighter"]));
@@ -130,6 +141,31 @@ fn decode_refuses_frames_that_contradict_themselves_unless_forced() {
         assert!(stderr(&o).contains("warning:") && stderr(&o).contains("(kept: --force)"), "{}", stderr(&o));
         assert!(out.is_file());
     }
+}
+
+/// Every Gray-code pattern of a scan's view swapped with its inverse (the files' contents exchanged):
+/// with the phase frames beside them the code fitted almost nowhere, and `process` stopped only at
+/// denoising with "0 valid points". Now decoding names the pairs.
+#[test]
+fn process_names_a_view_whose_patterns_are_all_swapped() {
+    let d = tempfile::tempdir().unwrap();
+    let scan = d.path().join("scan");
+    let o = scanrig(&[&"sim", &"--views", &"2", &"--resolution", &"320x256", &"--seed", &"3", &"--out", &scan]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m = rig::Manifest::read(&scan).unwrap();
+    let file = |p: rig::Pattern| scan.join(&m.views[0].frames.iter().find(|f| f.pattern == p).unwrap().file);
+    for p in rig::gray_code_folders::opencv_order(1024, 768) {
+        if let rig::Pattern::Gray { inverse: false, axis, bit, bits } = p {
+            let (a, b) = (file(p), file(rig::Pattern::Gray { inverse: true, axis, bit, bits }));
+            let (x, y) = (std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+            std::fs::write(&a, y).unwrap();
+            std::fs::write(&b, x).unwrap();
+        }
+    }
+    let o = scanrig(&[&"process", &scan, &"-o", &d.path().join("out")]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("looks swapped, each pattern with its inverse"), "{e}");
+    assert!(e.contains("gray_col_00.png") && e.contains("gray_row_09_inv.png"), "{e}");
 }
 
 /// Issue 37: `--gray-fit-radius 9223372036854775807` panicked ("capacity overflow"), 4294967296
