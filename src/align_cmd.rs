@@ -54,7 +54,11 @@ pub fn run(args: &AlignArgs) -> Result<()> {
                 size_hint(&moving.positions, &fixed.positions)
             );
         }
-        eprintln!("warning: not aligned ({}), written anyway as --force asks", a.why);
+        eprintln!(
+            "warning: not aligned ({}{}), written anyway as --force asks",
+            a.why,
+            size_hint(&moving.positions, &fixed.positions)
+        );
     }
     if let Some(out) = &args.out {
         let mut moved = moving;
@@ -122,22 +126,7 @@ fn one_unit(a: &Path, b: &Path) -> Result<()> {
     Ok(())
 }
 
-/// Sizes further apart than this, as a ratio of bounding-box diagonals, are named when an alignment
-/// fails: a part can be aligned onto a whole, but rarely one this much smaller.
-const SIZE_RATIO_HINT: f64 = 5.0;
-
-/// When the clouds' sizes differ by more than [`SIZE_RATIO_HINT`], what the failure may really be:
-/// two units (files that do not say theirs: 1000 for m and mm, 25.4 for inches).
+/// `; ` and [`process::register::global::sizes_apart`], or nothing.
 fn size_hint(a: &[rig::Point3], b: &[rig::Point3]) -> String {
-    let diagonal = |p: &[rig::Point3]| rig::Aabb::of(p).map_or(0.0, |b| b.diagonal());
-    let (da, db) = (diagonal(a), diagonal(b));
-    let ratio = da.max(db) / da.min(db);
-    // NaN (an empty extent) says nothing either.
-    if ratio.is_nan() || ratio <= SIZE_RATIO_HINT {
-        return String::new();
-    }
-    format!(
-        "; A is {da:.4} across and B {db:.4}, {ratio:.1}× apart in size — if they are one object in two units \
-         (1000× for m and mm, 25.4× for inches), bring them to one unit first"
-    )
+    process::register::global::sizes_apart(a, b).map_or(String::new(), |h| format!("; {h}"))
 }

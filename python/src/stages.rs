@@ -316,9 +316,16 @@ fn align<'py>(
     };
     let seed = seed.unwrap_or(GlobalParams::default().seed);
     let params = GlobalParams::for_clouds(&m, &f, voxel, seed).map_err(keyword)?;
-    let a = interruptible(py, move || align_global(&m, &f, &params))?.map_err(keyword)?;
+    // Arrays carry no unit: one object in metres and in mm fails as too few points or matches, and
+    // the sizes' ratio is named with the failure (as `scanrig align` names it).
+    let hint = ::process::register::global::sizes_apart(&m, &f).map_or(String::new(), |h| format!("; {h}"));
+    let failed = |e: GlobalError| match e {
+        GlobalError::Param(_) => keyword(e),
+        other => errors::StageError::new_err(format!("{}{hint}", errors::chain(&other))),
+    };
+    let a = interruptible(py, move || align_global(&m, &f, &params))?.map_err(failed)?;
     if !a.aligned {
-        let what = format!("moving could not be aligned onto fixed: {}", a.why);
+        let what = format!("moving could not be aligned onto fixed: {}{hint}", a.why);
         if !force {
             return Err(errors::StageError::new_err(format!("{what}; force=True returns the best guess anyway")));
         }

@@ -227,6 +227,9 @@ def test_align_finds_a_bunny_scan_from_any_pose_equal_to_the_cli_and_refuses_a_s
         scanrig.align(np.ascontiguousarray(sphere[:, [1, 0, 2]]), sphere)
     with pytest.warns(UserWarning, match="ambiguous"):
         scanrig.align(np.ascontiguousarray(sphere[:, [1, 0, 2]]), sphere, force=True)
+    # One object in metres and in mm (arrays carry no unit): the failure names the sizes' ratio.
+    with pytest.raises(scanrig.StageError, match="1000.0× apart in size"):
+        scanrig.align(np.ascontiguousarray(sphere[:, [1, 0, 2]]) * 1e-3, sphere)
     with pytest.raises(ValueError, match="voxel=0"):
         scanrig.align(sphere, sphere, voxel=0.0)
     with pytest.raises(scanrig.ScanrigError, match="point 0 of the moving cloud is not finite"):

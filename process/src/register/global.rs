@@ -336,6 +336,26 @@ fn refine(start: &Isometry3, m: &Described, target: &IcpTarget, voxel: Real) -> 
     icp(&m.points, &m.normals, target, start, &params).map(|r| r.0).unwrap_or(*start)
 }
 
+/// Sizes further apart than this, as a ratio of bounding-box diagonals, are named when an alignment
+/// fails ([`sizes_apart`]): a part can be aligned onto a whole, but rarely one this much smaller.
+pub const SIZE_RATIO_HINT: Real = 5.0;
+
+/// Where `moving` and `fixed` differ in size by more than [`SIZE_RATIO_HINT`], what a failed alignment
+/// may really be: one object in two units (1000× for m and mm, 25.4× for inches), which arrays and
+/// files that do not state their unit cannot show otherwise. `None` where the sizes are alike.
+pub fn sizes_apart(moving: &[Point3], fixed: &[Point3]) -> Option<String> {
+    let diagonal = |p: &[Point3]| rig::Aabb::of(p).map_or(0.0, |b| b.diagonal());
+    let (a, b) = (diagonal(moving), diagonal(fixed));
+    let ratio = a.max(b) / a.min(b);
+    // NaN (an empty extent) says nothing either.
+    (ratio.is_finite() && ratio > SIZE_RATIO_HINT).then(|| {
+        format!(
+            "the moving cloud is {a:.4} across and the fixed {b:.4}, {ratio:.1}× apart in size — if they are one \
+             object in two units (1000× for m and mm, 25.4× for inches), bring them to one unit first"
+        )
+    })
+}
+
 /// Aligns `moving` onto `fixed` with no starting pose (see the module notes).
 pub fn align_global(
     moving: &[Point3],
