@@ -263,7 +263,7 @@ pub fn export(command: &ExportCommand) -> Result<()> {
     .map_err(|why| anyhow::anyhow!("{} cannot be written as {scanner}: {why}", rig_path.display()))?;
     let text = match into {
         Some(into) => rig::scanner_calibration::merge_into(&read_text(into)?, &ours, kind)
-            .with_context(|| format!("--into {}: reading the scanner's own file", into.display()))?,
+            .with_context(|| format!("--into {}: laying the rig over the scanner's own file", into.display()))?,
         None => {
             // The scanner reads everything from this one file: what a rig does not hold is missing.
             let missing = match command {

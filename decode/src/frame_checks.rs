@@ -287,16 +287,18 @@ pub(crate) fn all_swapped(index: &[u32], width: usize, height: usize, bits: u32)
         return false;
     }
     let c = rig::patterns::gray_inverse(u32::MAX.checked_shr(32 - bits).unwrap_or(0));
-    let (mut as_decoded, mut flipped, mut pairs) = (0usize, 0usize, 0usize);
+    // Counted against the neighbours whose index changes: a camera finer than the projector sees
+    // many neighbours on one projector pixel, which no flip makes jump.
+    let (mut as_decoded, mut flipped, mut changing) = (0usize, 0usize, 0usize);
     let jump = |p: u32, q: u32| (p as i64 - q as i64).abs() > 8;
     for y in 0..height {
         row_pairs(index, width, height, y, |a, b| {
-            pairs += 1;
+            changing += usize::from(a != b);
             as_decoded += usize::from(jump(a, b));
             flipped += usize::from(jump(a ^ c, b ^ c));
         });
     }
-    as_decoded >= 20 && as_decoded as f64 >= 0.05 * pairs as f64 && flipped * 4 < as_decoded
+    as_decoded >= 20 && as_decoded as f64 >= 0.05 * changing as f64 && flipped * 4 < as_decoded
 }
 
 /// Which axis a mirrored map has reversed, if it is mirrored: `Some(true)` columns, `Some(false)` rows,

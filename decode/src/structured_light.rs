@@ -456,11 +456,11 @@ pub fn decode_view(
     let lit_count = lit.iter().filter(|&&l| l).count();
     let name = |k: usize| frames[k].0.name();
     let mut issues = frame_issues(&counts, lit_count, (white_k, black_k), &pair_frames, &name);
-    // Every pattern taken for its inverse: with a phase, the inverted code fits where the code does not.
+    // Every pattern taken for its inverse: with a phase, the inverted code fits where the code does not
+    // (by chance it hardly fits: flipping every bit moves the index by 3 or more, past the tolerance).
     let mut all_swapped = [false, false];
     for (k, a) in std::iter::once(&cols).chain(&rows).enumerate() {
-        all_swapped[k] =
-            a.phase.is_some() && inverted[k] >= 100 && inverted[k] > 2 * decoded[k] && 2 * inverted[k] > lit_count;
+        all_swapped[k] = a.phase.is_some() && inverted[k] >= 100 && inverted[k] > 2 * decoded[k];
     }
     // The codes' continuity and handedness, on the integer indices before they are refined.
     for (k, (a, coord)) in std::iter::once((&cols, &map.u)).chain(rows.as_ref().map(|r| (r, &map.v))).enumerate() {

@@ -9,6 +9,7 @@ use rig::math::{Real, Vector3};
 /// (d, s) in mm from `samples` random valid points of the grid (seeded), neighbourhood half-size `half`.
 /// `direction(i)` is cell i's displacement direction (zero where it has none; such samples are skipped),
 /// asked only at the samples, so a frame's directions need not all be computed for its bandwidths.
+/// (1, 1) where no sample has two valid neighbours ([`measured`] says so instead).
 pub fn estimate(
     grid: &RangeGrid,
     direction: impl Fn(usize) -> Vector3 + Sync,
@@ -16,9 +17,20 @@ pub fn estimate(
     samples: usize,
     seed: u64,
 ) -> (Real, Real) {
+    measured(grid, direction, half, samples, seed).unwrap_or((1.0, 1.0))
+}
+
+/// [`estimate`], `None` where no sample has two valid neighbours: nothing was measured.
+pub fn measured(
+    grid: &RangeGrid,
+    direction: impl Fn(usize) -> Vector3 + Sync,
+    half: usize,
+    samples: usize,
+    seed: u64,
+) -> Option<(Real, Real)> {
     let valid: Vec<usize> = (0..grid.valid.len()).filter(|&i| grid.valid[i]).collect();
     if valid.is_empty() {
-        return (1.0, 1.0);
+        return None;
     }
     let (w, h) = (grid.width as isize, grid.height as isize);
     let mut state = seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1;
@@ -66,7 +78,7 @@ pub fn estimate(
         n += 1;
     }
     if n == 0 {
-        return (1.0, 1.0);
+        return None;
     }
-    (0.75 * sum_max / n as Real, (sum_sd / n as Real).max(1e-9))
+    Some((0.75 * sum_max / n as Real, (sum_sd / n as Real).max(1e-9)))
 }

@@ -238,19 +238,25 @@ fn check(grid: &RangeGrid) -> Result<(), DenoiseError> {
 }
 
 /// A hand bandwidth below this fraction of section 4.3.2's automatic one over 3 × 3 cells (d about
-/// one cell's spacing, s the noise of a cell against its plane) weighs even the nearest neighbour
-/// at most about e^-14 of the point itself: the filter would return the grid unchanged, which a
-/// bandwidth in the wrong unit (metres on a grid in mm) gives.
+/// 1.06 cell spacings on a surface facing the sensor, s the noise of a cell against its plane) weighs
+/// the nearest neighbours next to nothing (d: about e^-14 there): the filter would return the grid
+/// all but unchanged, which a bandwidth in the wrong unit (metres on a grid in mm) gives.
 const LEAST_BANDWIDTH_SHARE: Real = 0.25;
 
-/// Refuses bandwidths given by hand that would move nothing on `grid`, measured against section
-/// 4.3.2's automatic ones over the nearest cells (3 × 3, whatever the neighbourhood: a wider one
-/// would raise d with its reach, not with the spacing).
+/// Refuses bandwidths given by hand that would move next to nothing on `grid`, measured against
+/// section 4.3.2's automatic ones over the nearest cells (3 × 3, whatever the neighbourhood: a wider
+/// one would raise d with its reach, not with the spacing). s only for the non-local similarity:
+/// the bilateral filter's still weighs neighbours at the point's own height fully. A grid too sparse
+/// to measure is not judged.
 fn check_bandwidth(grid: &RangeGrid, params: &DenoiseParams) -> Result<(), DenoiseError> {
     let Some((d, s)) = params.bandwidth else { return Ok(()) };
     let dir = |i| direction_at(grid, params.direction, params.normal_window, i);
-    let (own_d, own_s) = estimate(grid, dir, 1, BANDWIDTH_SAMPLES, params.seed);
-    for (which, given, own) in [("d", d, own_d), ("s", s, own_s)] {
+    let Some((own_d, own_s)) = super::bandwidth::measured(grid, dir, 1, BANDWIDTH_SAMPLES, params.seed) else {
+        return Ok(());
+    };
+    let non_local = matches!(params.similarity, Similarity::NonLocal { .. });
+    let checked = [("d", d, own_d)].into_iter().chain(non_local.then_some(("s", s, own_s)));
+    for (which, given, own) in checked {
         let least = LEAST_BANDWIDTH_SHARE * own;
         if given < least {
             return Err(DenoiseError::BandwidthTooSmall { which, given, own, least });
@@ -587,5 +593,9 @@ mod tests {
             let (_, report) = denoise(&grid, &by_hand(d, s)).unwrap();
             assert!(report.rms_displacement[0] > 0.01, "({d}, {s}) moves points: {:?}", report.rms_displacement);
         }
+        // The bilateral filter's similarity still weighs neighbours at the point's height: its s is
+        // not judged.
+        let bilateral = DenoiseParams { similarity: Similarity::Bilateral, ..by_hand(own.d[0], 1e-9) };
+        assert!(denoise(&grid, &bilateral).is_ok());
     }
 }

@@ -222,11 +222,12 @@ pub enum DenoiseError {
     /// The current frame index is not in the sequence.
     #[error("frame {0} is not in the sequence")]
     NoSuchFrame(usize),
-    /// A bandwidth given by hand so small against this grid that every neighbour's weight vanishes
-    /// and the filter would move nothing (most often a value in the wrong unit).
+    /// A bandwidth given by hand so small against this grid that the neighbours' weights all but
+    /// vanish and the filter would barely move anything (most often a value in the wrong unit).
     #[error(
         "bandwidth {which} = {given:.3e} is under a quarter of this grid's own {which} ({own:.3e}, in the \
-         grid's units): no neighbour would weigh anything and nothing would move; give at least {least:.3e}"
+         grid's units): the neighbours would weigh next to nothing and the filter would barely move \
+         anything; give at least {least:.3e}"
     )]
     BandwidthTooSmall {
         /// "d" (distance) or "s" (similarity).

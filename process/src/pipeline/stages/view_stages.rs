@@ -105,12 +105,15 @@ pub fn grid_colours(grid: &RangeGrid, texture: &rig::image::Image8) -> Option<Ve
     )
 }
 
-/// The decode stage's code version: raise it when decoding writes other bytes for the same frames.
-pub const DECODE: StageCode = StageCode { stage: "decode", version: 1 };
+/// The decode stage's code version: raise it when decoding writes other bytes for the same frames (2:
+/// every pattern swapped with its inverse is a fatal frame issue, so a map kept from before is judged
+/// again).
+pub const DECODE: StageCode = StageCode { stage: "decode", version: 2 };
 /// The triangulate stage's code version.
 pub const TRIANGULATE: StageCode = StageCode { stage: "triangulate", version: 1 };
-/// The denoise stage's code version (2: sizes from each grid's measured noise by default).
-pub const DENOISE: StageCode = StageCode { stage: "denoise", version: 2 };
+/// The denoise stage's code version (2: sizes from each grid's measured noise by default; 3: hand
+/// bandwidths that would move nothing are refused, where a grid kept from before was passed on).
+pub const DENOISE: StageCode = StageCode { stage: "denoise", version: 3 };
 /// The laser line stage's code version (extraction and triangulation of one laser's frame; 2: a texture
 /// frame of another size than the camera's is no longer sampled, clamped, for colours).
 pub const LASER_LINE: StageCode = StageCode { stage: "laser_line", version: 2 };
